@@ -1,0 +1,17 @@
+"""The kit's reference implementation: pure algorithms, ROS-shaped messages, robot models.
+
+Modules (import the one you need; ``import kit`` itself pulls in neither matplotlib nor
+pymunk):
+
+* :mod:`kit.geometry`   SE(2) poses, ``wrap_angle``, quaternions
+* :mod:`kit.msgs`       ROS 2 messages as frozen dataclasses
+* :mod:`kit.rosconv`    conversion to and from ROS 2 types (rosbags), CDR bytes
+* :mod:`kit.tf`         the transform tree
+* :mod:`kit.robots`     robot descriptions (URDF + parameters)
+* :mod:`kit.kinematics` differential-drive kinematics, the IGV's RPM equations
+* :mod:`kit.odometry`   encoder ticks → pose, covariance, ``Odometry`` messages
+* :mod:`kit.viz`        plotting (matplotlib, imported lazily)
+"""
+
+__version__ = "0.1.0"
+__all__ = ["__version__"]

@@ -1,0 +1,207 @@
+"""Planar rigid-body geometry: SE(2) poses, angle wrapping and quaternions.
+
+Conventions (stated once, used everywhere in the kit):
+
+* A planar pose is ``(x, y, theta)`` in metres and radians, an array of shape ``(3,)`` or
+  ``(N, 3)`` for many poses. ``theta`` is yaw, counter-clockwise about +z (REP-103).
+* ``compose(a, b)`` is the SE(2) product ``a ⊕ b``: the pose ``b``, expressed in the frame of
+  ``a``, taken into the frame ``a`` is expressed in. With ``T_odom_base = compose(T_odom_x,
+  T_x_base)`` frames chain left to right, like the ``A2B`` names of pytransform3d.
+* ``relative(a, b) = inverse(a) ⊕ b`` is ``b ⊖ a``: where ``b`` is, seen from ``a``.
+* Quaternions are in ROS order ``(x, y, z, w)``.
+* Every angle difference goes through :func:`wrap_angle`, which maps to ``[-pi, pi)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "check_pose",
+    "compose",
+    "inverse",
+    "quaternion_multiply",
+    "quaternion_rotate",
+    "quaternion_slerp",
+    "quaternion_to_yaw",
+    "relative",
+    "rpy_to_quaternion",
+    "transform_points",
+    "wrap_angle",
+    "yaw_to_quaternion",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+def wrap_angle(angle: ArrayLike) -> FloatArray:
+    """Wrap angles in radians to the half-open interval ``[-pi, pi)``.
+
+    Works on scalars and arrays; returns a float64 array (0-d for a scalar).
+
+    >>> float(wrap_angle(3 * np.pi / 2))
+    -1.5707963267948966
+    >>> float(wrap_angle(np.pi))
+    -3.141592653589793
+    """
+    a = np.asarray(angle, dtype=np.float64)
+    wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
+    # mod can round up to exactly 2*pi for inputs just below a multiple of 2*pi
+    return np.where(wrapped >= np.pi, wrapped - 2.0 * np.pi, wrapped)
+
+
+def check_pose(pose: ArrayLike, name: str = "pose") -> FloatArray:
+    """Return ``pose`` as a float64 array of shape ``(3,)`` or ``(N, 3)``, or raise ``ValueError``."""
+    p = np.asarray(pose, dtype=np.float64)
+    if p.ndim not in (1, 2) or p.shape[-1] != 3:
+        raise ValueError(
+            f"{name} must have shape (3,) or (N, 3) as (x [m], y [m], theta [rad]); "
+            f"got shape {p.shape}"
+        )
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"{name} contains NaN or infinite values: {p}")
+    return p
+
+
+def compose(a: ArrayLike, b: ArrayLike) -> FloatArray:
+    """SE(2) composition ``a ⊕ b``.
+
+    .. math:: x = x_a + x_b\\cos\\theta_a - y_b\\sin\\theta_a,\\quad
+              y = y_a + x_b\\sin\\theta_a + y_b\\cos\\theta_a,\\quad
+              \\theta = \\mathrm{wrap}(\\theta_a + \\theta_b)
+
+    Parameters
+    ----------
+    a, b : array_like, shape (3,) or (N, 3)
+        Poses; broadcast against each other.
+
+    >>> compose([1.0, 0.0, np.pi / 2], [1.0, 0.0, 0.0]).round(12).tolist()
+    [1.0, 1.0, 1.570796326795]
+    """
+    pa, pb = check_pose(a, "a"), check_pose(b, "b")
+    c, s = np.cos(pa[..., 2]), np.sin(pa[..., 2])
+    x = pa[..., 0] + c * pb[..., 0] - s * pb[..., 1]
+    y = pa[..., 1] + s * pb[..., 0] + c * pb[..., 1]
+    theta = wrap_angle(pa[..., 2] + pb[..., 2])
+    return np.stack(np.broadcast_arrays(x, y, theta), axis=-1)
+
+
+def inverse(a: ArrayLike) -> FloatArray:
+    """SE(2) inverse ``⊖a``, so that ``compose(a, inverse(a))`` is the identity."""
+    pa = check_pose(a, "a")
+    c, s = np.cos(pa[..., 2]), np.sin(pa[..., 2])
+    x = -c * pa[..., 0] - s * pa[..., 1]
+    y = s * pa[..., 0] - c * pa[..., 1]
+    return np.stack([x, y, wrap_angle(-pa[..., 2])], axis=-1)
+
+
+def relative(a: ArrayLike, b: ArrayLike) -> FloatArray:
+    """Pose of ``b`` seen from ``a``: ``inverse(a) ⊕ b`` (written ``b ⊖ a``).
+
+    >>> relative([1.0, 1.0, np.pi / 2], [1.0, 2.0, np.pi / 2]).round(12).tolist()
+    [1.0, 0.0, 0.0]
+    """
+    return compose(inverse(a), b)
+
+
+def transform_points(pose: ArrayLike, points: ArrayLike) -> FloatArray:
+    """Map points given in the frame of ``pose`` into the frame ``pose`` is expressed in.
+
+    Parameters
+    ----------
+    pose : array_like, shape (3,)
+        ``T_parent_child`` as (x, y, theta).
+    points : array_like, shape (M, 2)
+        Points in the child frame [m].
+
+    Returns
+    -------
+    ndarray, shape (M, 2)
+        The same points in the parent frame.
+    """
+    p = check_pose(pose)
+    if p.ndim != 1:
+        raise ValueError(f"transform_points takes one pose of shape (3,); got shape {p.shape}")
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ValueError(f"points must have shape (M, 2); got shape {pts.shape}")
+    c, s = math.cos(p[2]), math.sin(p[2])
+    rotation = np.array([[c, -s], [s, c]])
+    return pts @ rotation.T + p[:2]
+
+
+def yaw_to_quaternion(yaw: ArrayLike) -> FloatArray:
+    """Quaternion ``(x, y, z, w) = (0, 0, sin(yaw/2), cos(yaw/2))`` of a rotation about +z.
+
+    >>> yaw_to_quaternion(np.pi).round(12).tolist()
+    [0.0, 0.0, 1.0, 0.0]
+    """
+    half = 0.5 * np.asarray(yaw, dtype=np.float64)
+    zeros = np.zeros_like(half)
+    return np.stack([zeros, zeros, np.sin(half), np.cos(half)], axis=-1)
+
+
+def quaternion_to_yaw(quaternion: ArrayLike) -> FloatArray:
+    """Yaw (rotation about +z, in ``[-pi, pi)``) of quaternions ``(x, y, z, w)``, shape (..., 4).
+
+    Uses the ZYX (roll-pitch-yaw) decomposition, so it is correct for tilted bodies as well.
+    """
+    q = np.asarray(quaternion, dtype=np.float64)
+    if q.shape[-1:] != (4,):
+        raise ValueError(f"quaternion must have shape (..., 4) in ROS order (x, y, z, w); "
+                         f"got shape {q.shape}")
+    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return wrap_angle(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+
+
+def rpy_to_quaternion(roll: float, pitch: float, yaw: float) -> FloatArray:
+    """Quaternion ``(x, y, z, w)`` of fixed-axis roll, pitch, yaw (URDF ``rpy``), i.e. Rz·Ry·Rx."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return np.array([
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+        cr * cp * cy + sr * sp * sy,
+    ])
+
+
+def quaternion_multiply(q1: ArrayLike, q2: ArrayLike) -> FloatArray:
+    """Hamilton product ``q1 * q2`` of quaternions in ROS order, shape (..., 4)."""
+    a, b = np.asarray(q1, dtype=np.float64), np.asarray(q2, dtype=np.float64)
+    x1, y1, z1, w1 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    x2, y2, z2, w2 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    return np.stack([
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+    ], axis=-1)
+
+
+def quaternion_rotate(q: ArrayLike, v: ArrayLike) -> FloatArray:
+    """Rotate 3-vectors ``v`` (shape (..., 3)) by unit quaternions ``q`` (shape (..., 4))."""
+    qa = np.asarray(q, dtype=np.float64)
+    va = np.asarray(v, dtype=np.float64)
+    u, w = qa[..., :3], qa[..., 3:4]
+    t = 2.0 * np.cross(u, va)
+    return va + w * t + np.cross(u, t)
+
+
+def quaternion_slerp(q0: ArrayLike, q1: ArrayLike, fraction: float) -> FloatArray:
+    """Spherical linear interpolation between unit quaternions, taking the short way round."""
+    a = np.asarray(q0, dtype=np.float64)
+    b = np.asarray(q1, dtype=np.float64)
+    dot = float(np.dot(a, b))
+    if dot < 0.0:
+        b, dot = -b, -dot
+    if dot > 0.9995:  # nearly parallel: normalised lerp avoids dividing by sin(~0)
+        q = a + fraction * (b - a)
+        return q / np.linalg.norm(q)
+    omega = math.acos(dot)
+    s = math.sin(omega)
+    return (math.sin((1.0 - fraction) * omega) * a + math.sin(fraction * omega) * b) / s
