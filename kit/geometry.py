@@ -54,7 +54,7 @@ def wrap_angle(angle: ArrayLike) -> FloatArray:
 
 
 def check_pose(pose: ArrayLike, name: str = "pose") -> FloatArray:
-    """Return ``pose`` as a float64 array of shape ``(3,)`` or ``(N, 3)``, or raise ``ValueError``."""
+    """Return ``pose`` as float64 of shape ``(3,)`` or ``(N, 3)``, or raise ``ValueError``."""
     p = np.asarray(pose, dtype=np.float64)
     if p.ndim not in (1, 2) or p.shape[-1] != 3:
         raise ValueError(

@@ -44,8 +44,8 @@ __all__ = [
     "saturate_wheel_speeds",
     "turning_radius",
     "turning_radius_from_wheels",
-    "wheel_speeds_to_twist",
     "twist_to_wheel_speeds",
+    "wheel_speeds_to_twist",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -126,7 +126,7 @@ def forward_kinematics(wheel_speeds: ArrayLike, wheel_radius: float,
     phi = _last_axis(wheel_speeds, 2, "wheel_speeds", "[right, left] wheel speeds in rad/s")
     A, B = constraint_matrices(wheel_radius, half_track)
     J = np.linalg.pinv(A) @ B  # (3, 2)
-    return phi @ J.T
+    return phi @ J.T + 0.0  # + 0.0 turns -0.0 into 0.0 for printing
 
 
 def inverse_kinematics(body_velocity: ArrayLike, wheel_radius: float,
@@ -260,5 +260,4 @@ def saturate_wheel_speeds(wheel_speeds: ArrayLike, max_wheel_speed: float) -> Fl
     phi = _last_axis(wheel_speeds, 2, "wheel_speeds", "[right, left] wheel speeds in rad/s")
     limit = _positive(max_wheel_speed, "max_wheel_speed", "rad/s")
     peak = np.max(np.abs(phi), axis=-1, keepdims=True)
-    scale = np.where(peak > limit, limit / np.where(peak > 0, peak, 1.0), 1.0)
-    return phi * scale
+    return phi * (limit / np.maximum(peak, limit))

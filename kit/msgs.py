@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "MESSAGE_TYPES",
     "Header",
     "Imu",
     "JointState",
@@ -47,11 +48,11 @@ __all__ = [
     "Twist",
     "TwistWithCovariance",
     "Vector3",
-    "MESSAGE_TYPES",
 ]
 
 
-def _frozen_array(value: ArrayLike, dtype: Any, shape: tuple[int, ...] | None, name: str) -> NDArray[Any]:
+def _frozen_array(value: ArrayLike, dtype: Any, shape: tuple[int, ...] | None,
+                  name: str) -> NDArray[Any]:
     a = np.array(value, dtype=dtype, copy=True)
     if a.ndim == 0:
         raise ValueError(f"{name} must be a sequence, got the scalar {value!r}")
@@ -305,7 +306,8 @@ class LaserScan(Message):
 
     def angles(self) -> NDArray[np.float64]:
         """Beam angles ``angle_min + i * angle_increment`` [rad], one per range."""
-        return self.angle_min + self.angle_increment * np.arange(len(self.ranges))
+        return np.asarray(self.angle_min + self.angle_increment * np.arange(len(self.ranges)),
+                          dtype=np.float64)
 
 
 @dataclass(frozen=True, eq=False)

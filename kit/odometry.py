@@ -73,7 +73,8 @@ def conversion_factor(wheel_diameter: float, gear_ratio: float,
     return math.pi * float(wheel_diameter) / (float(gear_ratio) * float(encoder_resolution))
 
 
-def tick_delta(previous: ArrayLike, current: ArrayLike, counter_bits: int = 16) -> NDArray[np.int64]:
+def tick_delta(previous: ArrayLike, current: ArrayLike,
+               counter_bits: int = 16) -> NDArray[np.int64]:
     """Signed tick increment between two readings of a counter that rolls over.
 
     A ``counter_bits`` counter counts modulo ``2**counter_bits``; the increment is taken as
@@ -136,7 +137,7 @@ def odometry_step(pose: ArrayLike, d_right: float, d_left: float, wheel_separati
         The pose after the interval, θ wrapped to [−π, π).
 
     >>> odometry_step([0, 0, 0], np.pi * 0.25, -np.pi * 0.25, 0.5).round(12).tolist()
-    [0.0, 0.0, -3.141592653589793]
+    [0.0, 0.0, -3.14159265359]
     """
     p = geometry.check_pose(pose)
     if p.ndim != 1:

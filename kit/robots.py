@@ -121,7 +121,8 @@ class RobotDescription:
         raise KeyError(f"{self.name} has no joint {name!r}; joints: "
                        f"{[j.name for j in self.joints]}")
 
-    def static_transforms(self, stamp: msgs.Time | None = None) -> tuple[msgs.TransformStamped, ...]:
+    def static_transforms(self,
+                          stamp: msgs.Time | None = None) -> tuple[msgs.TransformStamped, ...]:
         """The URDF's joints at zero position as ``TransformStamped`` (for ``/tf_static``)."""
         header_stamp = stamp if stamp is not None else msgs.Time()
         return tuple(

@@ -47,7 +47,8 @@ def _check_names(msg: msgs.Message, ros_fields: list[str]) -> None:
 def _base_to_ros(value: Any, base: str, where: str) -> Any:
     if base == "string":
         if not isinstance(value, str):
-            raise TypeError(f"{where} must be a str for ROS type string; got {type(value).__name__}")
+            raise TypeError(
+                f"{where} must be a str for ROS type string; got {type(value).__name__}")
         return value
     if base == "bool":
         return bool(value)
