@@ -40,6 +40,8 @@ __all__ = [
     "igv_body_velocity",
     "igv_wheel_rpm",
     "inverse_kinematics",
+    "motor_speeds_to_twist",
+    "twist_to_motor_speeds",
     "rpm_to_drive_units",
     "saturate_wheel_speeds",
     "turning_radius",
@@ -169,6 +171,50 @@ def wheel_speeds_to_twist(wheel_speeds: ArrayLike, wheel_radius: float,
     """``[phi_dot_r, phi_dot_l]`` [rad/s] → (v [m/s], ω [rad/s])."""
     xi = forward_kinematics(wheel_speeds, wheel_radius, wheel_separation / 2.0)
     return xi[..., 0], xi[..., 2]
+
+
+def motor_speeds_to_twist(motor_speeds: ArrayLike, wheel_radius: float, wheel_separation: float,
+                          gear_ratio: float, left_sign: float = 1.0) -> FloatArray:
+    """What the Uiabot's odometry node does: motor speeds [turns/s] → (v [m/s], ω [rad/s]).
+
+    The ODrive reports each motor's speed in turns per second; through a gearbox of ratio
+    ``i`` the wheel turns at ``phi_dot = 2 pi turns_per_s / i`` rad/s. A motor mounted mirrored
+    turns backwards for a forward wheel: ``left_sign = -1`` undoes that.
+
+    Parameters
+    ----------
+    motor_speeds : array_like, shape (2,) or (N, 2)
+        (right, left) motor speeds [turns/s] as the motor controller reports them.
+
+    Returns
+    -------
+    ndarray, shape (2,) or (N, 2)
+        (v, ω).
+    """
+    m = _last_axis(motor_speeds, 2, "motor_speeds", "[right, left] motor speeds in turns/s")
+    i = _positive(gear_ratio, "gear_ratio", "motor turns per wheel turn")
+    wheel = m * np.array([1.0, float(left_sign)]) * 2.0 * np.pi / i
+    xi = forward_kinematics(wheel, wheel_radius, wheel_separation / 2.0)
+    return np.stack([xi[..., 0], xi[..., 2]], axis=-1)
+
+
+def twist_to_motor_speeds(linear: ArrayLike, angular: ArrayLike, wheel_radius: float,
+                          wheel_separation: float, gear_ratio: float,
+                          left_sign: float = 1.0) -> FloatArray:
+    """What the Uiabot's twist node does: ``cmd_vel`` (v, ω) → motor speeds [turns/s].
+
+    This is the **inverse** kinematics (erratum 6: the paper's text says forward):
+    ``phi_dot_{r,l} = (v ± b ω) / r`` rad/s at the wheels, times ``i / (2 pi)`` for motor
+    turns per second, the left one multiplied by ``left_sign``.
+
+    Returns
+    -------
+    ndarray, shape (..., 2)
+        (right, left) motor speed commands [turns/s].
+    """
+    i = _positive(gear_ratio, "gear_ratio", "motor turns per wheel turn")
+    wheel = twist_to_wheel_speeds(linear, angular, wheel_radius, wheel_separation)
+    return wheel * i / (2.0 * np.pi) * np.array([1.0, float(left_sign)])
 
 
 # --------------------------------------------------------------------------- IGV

@@ -33,6 +33,7 @@ __all__ = [
     "WheelOdometry",
     "conversion_factor",
     "covariance_to_ros",
+    "eddie_odometry_step",
     "integrate_odometry",
     "odom_transform",
     "odometry_covariance_step",
@@ -145,6 +146,22 @@ def odometry_step(pose: ArrayLike, d_right: float, d_left: float, wheel_separati
     dx, dy, dth = _increments(np.float64(p[2]), np.float64(d_right), np.float64(d_left),
                               float(wheel_separation), method)
     return np.array([p[0] + dx, p[1] + dy, float(geometry.wrap_angle(p[2] + dth))])
+
+
+def eddie_odometry_step(pose: ArrayLike, d_right: float, d_left: float,
+                        wheel_separation: float) -> FloatArray:
+    """The service robot's (Eddie's) odometry update, with its heading sign fixed.
+
+    Eddie's code turns first and then moves along the *new* heading:
+    ``θ' = θ + (Δs_r − Δs_l)/L``, ``x' = x + Δs cos θ'``, ``y' = y + Δs sin θ'``. The paper
+    prints ``(left − right)``, which is clockwise-positive (erratum 7); REP-103 needs
+    ``(right − left)``. Like Euler it is first order: its error shrinks with the step.
+    """
+    p = geometry.check_pose(pose)
+    ds = 0.5 * (float(d_right) + float(d_left))
+    theta = float(geometry.wrap_angle(p[2] + (float(d_right) - float(d_left)) /
+                                      float(wheel_separation)))
+    return np.array([p[0] + ds * math.cos(theta), p[1] + ds * math.sin(theta), theta])
 
 
 def integrate_odometry(d_right: ArrayLike, d_left: ArrayLike, wheel_separation: float,

@@ -120,3 +120,15 @@ def test_bad_inputs_name_what_was_expected():
         k.forward_kinematics([1.0, 2.0], -0.05, 0.1805)
     with pytest.raises(ValueError, match=r"\[x_dot, y_dot, theta_dot\]"):
         k.inverse_kinematics([1.0, 2.0], 0.05, 0.1805)
+
+
+def test_uiabot_twist_node_and_odometry_node_round_trip():
+    r = robots.load("uiabot")
+    sign = r.parameters["drive"]["left_motor_sign"]
+    motors = k.twist_to_motor_speeds(0.3, 0.4, r.wheel_radius, r.wheel_separation,
+                                     r.gear_ratio, sign)
+    # the paper's twist node: phi_r = (x_dot + theta_dot b) / r * i / (2 pi), left negated
+    assert motors[0] == pytest.approx((0.3 + 0.4 * 0.1805) / 0.05 * 20 / (2 * math.pi))
+    assert motors[1] == pytest.approx(-(0.3 - 0.4 * 0.1805) / 0.05 * 20 / (2 * math.pi))
+    v, w = k.motor_speeds_to_twist(motors, r.wheel_radius, r.wheel_separation, r.gear_ratio, sign)
+    assert (v, w) == pytest.approx((0.3, 0.4))

@@ -1,0 +1,14 @@
+"""The kit's grader: exercise specs, notebook checks, release and sandboxed grading.
+
+In a lab notebook::
+
+    from grader import checker
+    check = checker("lab01")
+    check(forward_kinematics)
+
+For instructors, the ``grader`` command: ``grader release``, ``grader grade``.
+"""
+
+from grader.checker import checker
+
+__all__ = ["checker"]

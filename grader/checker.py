@@ -1,0 +1,125 @@
+"""The check cells of a lab notebook.
+
+In the notebook's setup cell::
+
+    from grader import checker
+    check = checker("lab01")
+
+and after an exercise::
+
+    check(forward_kinematics)
+
+``check`` runs the exercise's public cases in the kernel and prints one verdict: every case
+passed; or "not implemented yet"; or the first failing case with what was expected, what came
+back and a hint. It never raises, so a student's notebook always runs top to bottom. While a
+submission is being graded (``KIT_GRADING=1``) it does nothing: grading runs the cases itself.
+"""
+
+from __future__ import annotations
+
+import os
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from grader.compare import compare, matches
+from grader.spec import Case, Exercise, LabSpec, load_lab
+
+__all__ = ["CaseResult", "Checker", "checker", "run_case"]
+
+
+@dataclass(frozen=True)
+class CaseResult:
+    case: str
+    passed: bool
+    status: str
+    """``passed``, ``wrong``, ``not implemented``, ``error``."""
+    message: str = ""
+
+
+def diagnose(exercise: Exercise, case: Case, got: Any) -> str:
+    """The hint of the first known mistake whose output equals ``got``."""
+    for diag in exercise.diagnostics:
+        try:
+            wrong = diag.wrong(*case.args, **case.kwargs)
+        except Exception:  # a diagnostic that does not apply to this case
+            continue
+        if matches(wrong, got, exercise.rtol, exercise.atol):
+            return f"this is what {diag.name} gives: {diag.hint}"
+    return ""
+
+
+def explain(exercise: Exercise, case: Case, got: Any) -> tuple[str, str] | None:
+    """``None`` when ``got`` is the reference's output for ``case``, else (problem, hint).
+
+    A known mistake of the exercise that reproduces ``got`` gives the hint; failing that,
+    :func:`grader.compare.compare` adds a generic one (degrees, 2π, signs, swaps) to the
+    problem itself.
+    """
+    expected = exercise.reference(*case.args, **case.kwargs)
+    problem = compare(expected, got, exercise.rtol, exercise.atol, hints=False)
+    if problem is None:
+        return None
+    hint = diagnose(exercise, case, got)
+    if hint:
+        return problem, hint
+    return str(compare(expected, got, exercise.rtol, exercise.atol)), ""
+
+
+def judge(exercise: Exercise, case: Case, got: Any) -> CaseResult:
+    """Compare one output with the reference's, both computed in this process."""
+    verdict = explain(exercise, case, got)
+    if verdict is None:
+        return CaseResult(case.name, True, "passed")
+    problem, hint = verdict
+    return CaseResult(case.name, False, "wrong", problem + (f"\n  {hint}" if hint else ""))
+
+
+def run_case(exercise: Exercise, fn: Callable[..., Any], case: Case) -> CaseResult:
+    try:
+        got = fn(*case.args, **case.kwargs)
+    except NotImplementedError:
+        return CaseResult(case.name, False, "not implemented", "not implemented yet")
+    except Exception as exc:
+        frame = traceback.extract_tb(exc.__traceback__)[-1]
+        return CaseResult(case.name, False, "error",
+                          f"raised {type(exc).__name__}: {exc} (line {frame.lineno})")
+    return judge(exercise, case, got)
+
+
+class Checker:
+    """``check(fn)`` for one lab."""
+
+    def __init__(self, spec: LabSpec) -> None:
+        self.spec = spec
+
+    def __call__(self, fn: Callable[..., Any], exercise: str | None = None) -> None:
+        if os.environ.get("KIT_GRADING"):
+            return
+        try:
+            ex = self.spec.exercise(exercise or str(getattr(fn, "__name__", "")))
+        except KeyError as exc:
+            print(f"✗ {exc.args[0]}")
+            return
+        if not callable(fn):
+            print(f"✗ {ex.id}: check() needs the function itself, not {type(fn).__name__}")
+            return
+        results = [run_case(ex, fn, case) for case in ex.public]
+        if any(r.status == "not implemented" for r in results):
+            print(f"… {ex.id}: not implemented yet")
+            return
+        failed = [r for r in results if not r.passed]
+        label = f" ({fn.__name__} checked as {ex.function})" if fn.__name__ != ex.function else ""
+        if not failed:
+            print(f"✓ {ex.id}{label}: all {len(results)} public cases pass "
+                  f"({ex.points:g} points when graded, with hidden cases too)")
+            return
+        first = failed[0]
+        print(f"✗ {ex.id}{label}: {len(failed)} of {len(results)} public cases fail.\n"
+              f"  case '{first.case}': {first.message}")
+
+
+def checker(lab: str | int) -> Checker:
+    """The ``check`` function of a lab's notebook."""
+    return Checker(load_lab(lab))

@@ -1,0 +1,145 @@
+"""Compare a student's output with the expected one and say, in a sentence, what is wrong.
+
+:func:`compare` returns ``None`` when the output is right (within the tolerances) and
+otherwise a message for the student: which part of the output is off, expected against got,
+and a hint when the difference looks like a classic robotics bug — degrees for radians, an
+angle off by a multiple of 2π, the two wheels swapped, a sign flipped, a matrix transposed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from kit import msgs
+
+__all__ = ["compare", "generic_hint"]
+
+_NUMERIC = (int, float, np.integer, np.floating, np.bool_)
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, np.ndarray):
+        with np.printoptions(precision=6, suppress=True, threshold=12, edgeitems=3):
+            return np.array2string(value, separator=", ")
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    text = repr(value)
+    return text if len(text) <= 200 else text[:200] + "…"
+
+
+def _as_array(value: Any) -> np.ndarray | None:
+    if isinstance(value, (bool, np.bool_)):
+        return None
+    if isinstance(value, (np.ndarray, *_NUMERIC)):
+        return np.asarray(value)
+    if isinstance(value, (list, tuple)):
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            return None
+        return arr
+    return None
+
+
+def generic_hint(expected: np.ndarray, got: np.ndarray, rtol: float, atol: float) -> str:
+    """A hint when ``got`` relates to ``expected`` the way a known mistake would."""
+    e = np.asarray(expected, dtype=np.float64)
+    g = np.asarray(got, dtype=np.float64)
+
+    def close(a: np.ndarray, b: np.ndarray) -> bool:
+        return a.shape == b.shape and bool(np.allclose(a, b, rtol=max(rtol, 1e-6),
+                                                       atol=max(atol, 1e-9)))
+
+    if not np.any(e):
+        return ""
+    if close(g, np.degrees(e)):
+        return "the values are the expected ones in degrees: work in radians"
+    if close(g, np.radians(e)):
+        return "the values are the expected ones converted to radians twice (or from radians)"
+    diff = g - e
+    turns = diff / (2 * np.pi)
+    if e.shape == g.shape and np.any(np.abs(diff) > 1.0) and np.allclose(
+            turns, np.round(turns), atol=1e-6):
+        return "an angle is off by a multiple of 2π: wrap it with wrap_angle to [-π, π)"
+    if close(g, -e):
+        return "every value has the wrong sign: check the direction convention (REP-103: " \
+               "x forward, y left, counter-clockwise positive)"
+    if e.ndim >= 1 and e.shape[-1] == 2 and close(g, e[..., ::-1]):
+        return "the two entries are swapped: the kit orders wheels (right, left)"
+    if e.ndim == 2 and close(g, e.T):
+        return "the matrix is transposed"
+    return ""
+
+
+def compare(expected: Any, got: Any, rtol: float = 1e-6, atol: float = 1e-9,
+            path: str = "the output", hints: bool = True) -> str | None:
+    """``None`` if ``got`` matches ``expected`` within the tolerances, else a message."""
+    if got is None and expected is not None:
+        return f"{path} is None: did the function forget to return its result?"
+
+    if isinstance(expected, msgs.Message):
+        if type(got) is not type(expected):
+            return (f"{path} should be a {type(expected).__name__} message; "
+                    f"got {type(got).__name__}")
+        for f in dataclasses.fields(expected):  # type: ignore[arg-type]
+            problem = compare(getattr(expected, f.name), getattr(got, f.name), rtol, atol,
+                              f"{path}.{f.name}" if path != "the output" else f.name, hints)
+            if problem:
+                return problem
+        return None
+
+    if isinstance(expected, str):
+        if got != expected:
+            return f"{path}: expected {expected!r}, got {_fmt(got)}"
+        return None
+
+    if isinstance(expected, tuple) and not all(isinstance(v, _NUMERIC) for v in expected):
+        if not isinstance(got, (tuple, list)) or len(got) != len(expected):
+            n = len(got) if isinstance(got, (tuple, list)) else "not a tuple"
+            return f"{path} should be a tuple of {len(expected)} values; got {n}"
+        for i, (e, g) in enumerate(zip(expected, got, strict=True)):
+            problem = compare(e, g, rtol, atol, f"{path}[{i}]", hints)
+            if problem:
+                return problem
+        return None
+
+    e_arr = _as_array(expected)
+    if e_arr is None:  # some other plain value
+        return None if got == expected else f"{path}: expected {_fmt(expected)}, got {_fmt(got)}"
+    g_arr = _as_array(got)
+    if g_arr is None:
+        return f"{path} should be a number or array of numbers; got {type(got).__name__}"
+    if g_arr.shape != e_arr.shape:
+        if g_arr.size == e_arr.size:
+            return (f"{path} has shape {g_arr.shape} but should have shape {e_arr.shape} "
+                    f"(same values in the wrong layout?)")
+        return f"{path} has shape {g_arr.shape} but should have shape {e_arr.shape}"
+    if g_arr.dtype.kind not in "biuf":
+        return f"{path} should hold numbers; got dtype {g_arr.dtype}"
+    g_f = g_arr.astype(np.float64)
+    e_f = e_arr.astype(np.float64)
+    if np.any(np.isnan(g_f) & ~np.isnan(e_f)):
+        idx = np.argwhere(np.isnan(g_f) & ~np.isnan(e_f))[0]
+        where = f" at index {tuple(idx.tolist())}" if g_f.ndim else ""
+        return f"{path} contains NaN{where} where {_fmt(e_f[tuple(idx)])} was expected"
+    if np.any(np.isinf(g_f) & np.isfinite(e_f)):
+        return f"{path} contains an infinite value where a finite one was expected"
+    if e_arr.dtype.kind in "iu" and not np.array_equal(g_f, e_f):
+        return f"{path}: expected {_fmt(e_arr)}, got {_fmt(g_arr)} (exact integers)"
+    if np.allclose(g_f, e_f, rtol=rtol, atol=atol, equal_nan=True):
+        return None
+    err = np.abs(np.where(np.isfinite(e_f), g_f - e_f, 0.0))
+    message = f"{path}: expected {_fmt(e_arr)}, got {_fmt(g_arr)}"
+    if g_f.ndim:
+        worst = tuple(int(v) for v in np.unravel_index(int(np.argmax(err)), err.shape))
+        message += f" (largest error {float(err[worst]):.3g} at index {worst})"
+    hint = generic_hint(e_f, g_f, rtol, atol) if hints else ""
+    return f"{message}; hint: {hint}" if hint else message
+
+
+def matches(expected: Any, got: Any, rtol: float, atol: float) -> bool:
+    """True when :func:`compare` finds nothing wrong."""
+    return compare(expected, got, rtol, atol) is None
