@@ -39,15 +39,17 @@ class CaseResult:
 
 
 def diagnose(exercise: Exercise, case: Case, got: Any) -> str:
-    """The hint of the first known mistake whose output equals ``got``."""
+    """The hints of every known mistake whose output equals ``got`` (some mistakes give the
+    same numbers: swapped wheels and a flipped turn sign, for instance)."""
+    found = []
     for diag in exercise.diagnostics:
         try:
             wrong = diag.wrong(*case.args, **case.kwargs)
         except Exception:  # a diagnostic that does not apply to this case
             continue
         if matches(wrong, got, exercise.rtol, exercise.atol):
-            return f"this is what {diag.name} gives: {diag.hint}"
-    return ""
+            found.append(f"this is what {diag.name} gives: {diag.hint}")
+    return "; or ".join(found)
 
 
 def explain(exercise: Exercise, case: Case, got: Any) -> tuple[str, str] | None:

@@ -1,0 +1,56 @@
+# The kit's three commands. Each one creates .venv from pyproject.toml on first use.
+#   make lab    copy labs/ into work/ (never overwriting your files) and start JupyterLab there
+#   make demo   headless see-think-act run: each robot drives a square; writes out/demo_square.png
+#   make test   ruff, mypy, pytest (with the labs executed) and nbval on solutions/
+# Instructors: make solutions re-executes solutions/ (KIT_FAST=1) and regenerates labs/.
+
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+PYTEST_ARGS ?=
+export KIT_FAST ?= 1
+
+.PHONY: lab demo test lint typecheck pytest nbval solutions release bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	touch $(STAMP)
+
+lab: $(STAMP)
+	mkdir -p work
+	cp -r -n labs/. work/
+	KIT_FAST= $(BIN)/jupyter lab --notebook-dir=work
+
+demo: $(STAMP)
+	$(BIN)/python -m sim demo --out out
+
+lint: $(STAMP)
+	$(BIN)/ruff check kit sim grader hardware tests benchmarks
+
+typecheck: $(STAMP)
+	$(BIN)/mypy
+
+pytest: $(STAMP)
+	$(BIN)/pytest -n 2 $(PYTEST_ARGS)
+
+nbval: $(STAMP)
+	$(BIN)/pytest --nbval solutions -p no:xdist -o addopts="" $(PYTEST_ARGS)
+
+test: lint typecheck pytest nbval
+
+solutions: $(STAMP)
+	$(BIN)/jupyter nbconvert --to notebook --execute --inplace solutions/[0-9][0-9]-*.ipynb
+	$(BIN)/grader release
+
+release: $(STAMP)
+	$(BIN)/grader release
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/bench_core.py
+	$(BIN)/python benchmarks/bench_grader.py
+
+clean:
+	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache

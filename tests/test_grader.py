@@ -1,0 +1,352 @@
+"""The grader: release, check cells, the codec, comparisons, and grading whole notebooks."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import nbformat
+import numpy as np
+import pytest
+
+from grader import checker, release, serialize
+from grader.compare import compare
+from grader.grade import (
+    find_submissions,
+    grade_notebook,
+    grade_submissions,
+    student_id,
+    write_gradebook,
+    write_results,
+)
+from grader.spec import course_seed, load_lab
+from kit import msgs
+
+ROOT = Path(__file__).resolve().parents[1]
+SOLUTIONS, LABS = ROOT / "solutions", ROOT / "labs"
+
+
+# ------------------------------------------------------------------ release
+
+def test_labs_are_what_release_produces():
+    assert release.check_release(SOLUTIONS, LABS) == []
+
+
+def test_release_keeps_indentation_and_matches_nbgrader_wording():
+    src = "def f(x):\n    '''doc'''\n    ### BEGIN SOLUTION\n    return x\n    ### END SOLUTION\n"
+    assert release.strip_solutions(src) == (
+        "def f(x):\n    '''doc'''\n    # YOUR CODE HERE\n    raise NotImplementedError()\n")
+
+
+@pytest.mark.dataset
+def test_release_equals_nbgrader_generate_assignment(shared_data):
+    """nbgrader's own source → release pair: our stripping gives its released code cells."""
+    base = shared_data / "nbgrader-samples" / "nbgrader-docs-ps1"
+    source = nbformat.read(base / "source" / "problem1.ipynb", as_version=4)
+    released = nbformat.read(base / "release" / "problem1.ipynb", as_version=4)
+    ours = [release.strip_solutions(c.source) for c in source.cells
+            if c.cell_type == "code" and "BEGIN SOLUTION" in c.source]
+    theirs = [c.source for c in released.cells
+              if c.cell_type == "code" and "raise NotImplementedError()" in c.source
+              and c.source.startswith("def ")]
+    assert ours and ours == theirs
+
+
+@pytest.mark.parametrize("bad", [
+    "### BEGIN SOLUTION\nx = 1\n",
+    "x = 1\n### END SOLUTION\n",
+    "### BEGIN SOLUTION\n### BEGIN SOLUTION\n### END SOLUTION\n",
+])
+def test_unpaired_markers_are_reported_with_their_place(bad):
+    with pytest.raises(release.ReleaseError, match=r"lab\.ipynb, cell 3"):
+        release.strip_solutions(bad, "lab.ipynb, cell 3")
+
+
+def test_release_writes_and_detects_stale_labs(tmp_path):
+    sol, labs = tmp_path / "solutions", tmp_path / "labs"
+    sol.mkdir()
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell("def f():\n    ### BEGIN SOLUTION\n    return 1\n"
+                                          "    ### END SOLUTION")]
+    nbformat.write(nb, sol / "07-x.ipynb")
+    assert release.check_release(sol, labs) == [f"{labs / '07-x.ipynb'} is missing: run "
+                                                f"`grader release`"]
+    release.release(sol, labs)
+    assert release.check_release(sol, labs) == []
+    assert "raise NotImplementedError()" in (labs / "07-x.ipynb").read_text()
+    nb.cells[0].source = nb.cells[0].source.replace("return 1", "return 2")
+    nbformat.write(nb, sol / "07-x.ipynb")
+    assert release.check_release(sol, labs) == []  # only the hidden solution changed
+    nb.cells[0].source = nb.cells[0].source.replace("def f()", "def g()")
+    nbformat.write(nb, sol / "07-x.ipynb")
+    assert "out of date" in release.check_release(sol, labs)[0]
+
+
+# ------------------------------------------------------------------ codec and comparison
+
+def test_codec_round_trips_the_values_exercises_return():
+    value = (np.arange(6, dtype=np.float32).reshape(2, 3), 3, 2.5, float("nan"), math.inf,
+             [1, "a"], {"k": np.int64(7)}, np.float64(1.5), True, None, 2**70,
+             msgs.TransformStamped(msgs.Header(msgs.Time(1, 2), "odom"), "base_link"))
+    back = serialize.loads(serialize.dumps(value))
+    assert back[0].dtype == np.float32 and np.array_equal(back[0], value[0])
+    assert back[1:3] == (3, 2.5) and math.isnan(back[3]) and back[4] == math.inf
+    assert back[5:7] == ([1, "a"], {"k": 7}) and back[10] == 2**70
+    assert back[11] == value[11]
+
+
+@pytest.mark.parametrize("value", [np.array([object()], dtype=object), {1: 2}, object(),
+                                   lambda: 1])
+def test_codec_refuses_what_cannot_be_graded(value):
+    with pytest.raises(serialize.EncodeError):
+        serialize.encode(value)
+
+
+@pytest.mark.parametrize("text", [
+    '{"__ndarray__": [1, 2], "dtype": "O", "shape": [2]}',
+    '{"__ndarray__": [1, 2], "dtype": "<f8", "shape": [3]}',
+    '{"__msg__": "os/system", "fields": {}}',
+    '{"__float__": "1e999"}',
+    '{"__evil__": 1}',
+    "not json",
+])
+def test_codec_rejects_malformed_or_hostile_input(text):
+    with pytest.raises(serialize.DecodeError):
+        serialize.loads(text)
+
+
+@pytest.mark.parametrize(("got", "fragment"), [
+    (np.degrees([0.5, 1.0]), "degrees"),
+    ([0.5, 1.0 + 2 * math.pi], "multiple of 2π"),
+    ([-0.5, -1.0], "wrong sign"),
+    ([1.0, 0.5], "swapped"),
+    (None, "forget to return"),
+    ([0.5, 1.0, 0.0], "shape"),
+    ([0.5, float("nan")], "NaN"),
+    ("0.5", "should be a number"),
+])
+def test_compare_explains_classic_mistakes(got, fragment):
+    assert fragment in compare(np.array([0.5, 1.0]), got)
+
+
+def test_compare_accepts_lists_tuples_and_tolerance():
+    assert compare(np.array([1.0, 2.0]), [1.0, 2.0 + 1e-12]) is None
+    assert compare((np.float64(1.0), np.float64(2.0)), (1.0, 2.0)) is None
+    assert "exact integers" in compare(np.int64(437), 436)
+    assert "transposed" in compare(np.array([[1.0, 2.0], [3.0, 4.0]]), [[1.0, 3.0], [2.0, 4.0]])
+    stamped = msgs.TransformStamped(msgs.Header(frame_id="odom"), "base_link")
+    assert "header.frame_id" in compare(stamped, msgs.TransformStamped(msgs.Header(
+        frame_id="base_link"), "base_link"))
+
+
+# ------------------------------------------------------------------ check cells
+
+def test_check_says_not_implemented_passes_and_explains(capsys):
+    check = checker("lab01")
+
+    def forward_kinematics(wheel_speeds, wheel_radius, half_track):
+        raise NotImplementedError
+
+    check(forward_kinematics)
+    assert "not implemented yet" in capsys.readouterr().out
+
+    def turning_radius(linear, angular):
+        return math.inf if angular == 0 else linear / angular
+
+    check(turning_radius)
+    assert "✓ lab01.turning_radius" in capsys.readouterr().out
+
+    def igv_wheel_rpm(linear, angular):
+        return (4000 * linear + 1440 * angular) / 67, (4000 * linear - 1440 * angular) / 67
+
+    check(igv_wheel_rpm)
+    out = capsys.readouterr().out
+    assert "✗ lab01.igv_wheel_rpm" in out and "swapped wheels" in out
+
+    def broken(linear, angular):
+        return 1 / 0
+
+    check(broken, exercise="turning_radius")
+    assert "ZeroDivisionError" in capsys.readouterr().out
+    check(broken)
+    assert "has no exercise 'broken'" in capsys.readouterr().out
+
+
+def test_check_is_silent_while_grading(capsys, monkeypatch):
+    monkeypatch.setenv("KIT_GRADING", "1")
+    checker("lab02")(lambda: 1)
+    assert capsys.readouterr().out == ""
+
+
+def test_hidden_cases_depend_on_secret_and_student():
+    ex = load_lab("lab01").exercise("forward_kinematics")
+    a = ex.hidden_cases(course_seed(ex.id, "alice", "s1"))
+    b = ex.hidden_cases(course_seed(ex.id, "bob", "s1"))
+    c = ex.hidden_cases(course_seed(ex.id, "alice", "s2"))
+    again = ex.hidden_cases(course_seed(ex.id, "alice", "s1"))
+    assert np.array_equal(a[0].args[0], again[0].args[0])
+    assert not np.array_equal(a[0].args[0], b[0].args[0])
+    assert not np.array_equal(a[0].args[0], c[0].args[0])
+
+
+def test_every_exercise_reference_passes_its_own_cases_and_no_diagnostic_equals_it():
+    """A diagnostic that gave the right answer would call correct work a mistake."""
+    from grader.compare import matches
+
+    for lab in ("lab01", "lab02"):
+        for ex in load_lab(lab).exercises:
+            for case in (*ex.public, *ex.hidden_cases(1)):
+                expected = ex.reference(*case.args, **case.kwargs)
+                for diag in ex.diagnostics:
+                    try:
+                        wrong = diag.wrong(*case.args, **case.kwargs)
+                    except Exception:
+                        continue
+                    assert not (case in ex.public and matches(expected, wrong, ex.rtol,
+                                                              ex.atol) and
+                                all(matches(ex.reference(*c.args, **c.kwargs),
+                                            diag.wrong(*c.args, **c.kwargs), ex.rtol, ex.atol)
+                                    for c in ex.public)), (ex.id, diag.name)
+
+
+# ------------------------------------------------------------------ grading notebooks
+
+def notebook_with(path: Path, *sources: str) -> Path:
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell(s) for s in sources]
+    nbformat.write(nb, path)
+    return path
+
+
+def mutate(src_notebook: Path, dest: Path, old: str, new: str) -> Path:
+    nb = nbformat.read(src_notebook, as_version=4)
+    hits = [c for c in nb.cells if c.cell_type == "code" and old in c.source]
+    assert len(hits) == 1, f"{old!r} must occur in exactly one cell"
+    hits[0].source = hits[0].source.replace(old, new)
+    nbformat.write(nb, dest)
+    return dest
+
+
+def test_solutions_score_full_and_untouched_labs_score_zero(tmp_path):
+    results = {}
+    for lab, name in (("lab01", "01-kinematics.ipynb"), ("lab02", "02-odometry.ipynb")):
+        spec = load_lab(lab)
+        graded = grade_submissions([SOLUTIONS / name, LABS / name], spec, jobs=2)
+        results[lab] = graded
+        solution, untouched = graded
+        assert solution.status == "ok" and solution.total == spec.max_points
+        assert untouched.status == "ok" and untouched.total == 0
+        assert {e.status for e in untouched.exercises.values()} == {"not implemented"}
+        assert all(e.reason == "not implemented yet" for e in untouched.exercises.values())
+    spec = load_lab("lab01")
+    write_gradebook(tmp_path / "gb.csv", results["lab01"], spec)
+    rows = (tmp_path / "gb.csv").read_text().splitlines()
+    assert rows[0].split(",")[:2] == ["student", "lab01.constraint_matrices"]
+    assert rows[0].endswith("total,max,percent,status,reason")
+    assert rows[1].startswith("01-kinematics,2,3,3,2,2,2,2,2,2,20,20,100.0,ok") or \
+        rows[1].startswith("solutions,2,3,3,2,2,2,2,2,2,20,20,100.0,ok")
+    write_results(tmp_path / "gb.json", results["lab01"], spec)
+    data = json.loads((tmp_path / "gb.json").read_text())
+    cases = data["submissions"][0]["exercises"]["lab01.forward_kinematics"]["cases"]
+    assert len(cases) > len(spec.exercise("forward_kinematics").public)
+    assert all(c["passed"] for c in cases)
+
+
+BUGS = [
+    # (lab, notebook, exercise losing its points, old text, new text, words of the hint)
+    ("lab01", "01-kinematics.ipynb", "forward_kinematics",
+     "return np.asarray(wheel_speeds, dtype=float) @ J.T",
+     "return np.asarray(wheel_speeds, dtype=float)[..., ::-1] @ J.T", "swapped wheels"),
+    ("lab01", "01-kinematics.ipynb", "forward_kinematics",
+     "return np.asarray(wheel_speeds, dtype=float) @ J.T",
+     "return np.asarray(wheel_speeds, dtype=float) @ J.T * np.array([1, 1, -1])", "erratum 5"),
+    ("lab01", "01-kinematics.ipynb", "odometry_twist",
+     "return np.stack([v, omega], axis=-1)", "return np.stack([omega, v], axis=-1)",
+     "erratum 1"),
+    ("lab01", "01-kinematics.ipynb", "twist_to_motor_speeds",
+     "wheels = inverse_kinematics([linear, 0.0, angular], wheel_radius, wheel_separation / 2)",
+     "b = wheel_separation / 2\n    r = wheel_radius\n"
+     "    wheels = np.array([r / 2 * linear + r / (2 * b) * angular, "
+     "r / 2 * linear - r / (2 * b) * angular])", "erratum 6"),
+    ("lab01", "01-kinematics.ipynb", "saturate_wheel_speeds",
+     "return phi * (max_wheel_speed / peak)",
+     "return np.clip(phi, -max_wheel_speed, max_wheel_speed)", "clipping"),
+    ("lab02", "02-odometry.ipynb", "eddie_odometry_step",
+     "theta = float(wrap_angle(theta + (d_right - d_left) / wheel_separation))",
+     "theta = float(wrap_angle(theta + (d_left - d_right) / wheel_separation))", "erratum 7"),
+    ("lab02", "02-odometry.ipynb", "eddie_odometry_step",
+     "theta = float(wrap_angle(theta + (d_right - d_left) / wheel_separation))",
+     "theta = theta + math.degrees((d_right - d_left) / wheel_separation)", ""),
+    ("lab02", "02-odometry.ipynb", "eddie_odometry_step",
+     "theta = float(wrap_angle(theta + (d_right - d_left) / wheel_separation))",
+     "theta = theta + (d_right - d_left) / wheel_separation", "unwrapped"),
+    ("lab02", "02-odometry.ipynb", "integrate_path",
+     "poses.append(exact_arc_step(poses[-1], dr, dl, wheel_separation))",
+     "poses.append(exact_arc_step(np.zeros(3), dr, dl, wheel_separation))", "erratum 2"),
+    ("lab02", "02-odometry.ipynb", "conversion_factor",
+     "return math.pi * wheel_diameter / (gear_ratio * encoder_resolution)",
+     "return wheel_diameter / (gear_ratio * encoder_resolution)", "needs pi"),
+    ("lab02", "02-odometry.ipynb", "tick_delta",
+     "return d - modulus if d >= modulus // 2 else d", "return current - previous",
+     "wraps modulo"),
+]
+
+
+def test_seeded_bugs_lose_exactly_their_exercise(tmp_path):
+    paths, expectations = [], []
+    for i, (lab, name, function, old, new, hint) in enumerate(BUGS):
+        paths.append((lab, mutate(SOLUTIONS / name, tmp_path / f"bug{i}.ipynb", old, new)))
+        expectations.append((lab, function, hint))
+    for (lab, path), (_, function, hint) in zip(paths, expectations, strict=True):
+        spec = load_lab(lab)
+        result = grade_notebook(path, spec)
+        lost = {k: v for k, v in result.exercises.items() if v.points < v.max_points}
+        assert list(lost) == [f"{lab}.{function}"], (path.name, {k: v.reason for k, v in
+                                                                  lost.items()})
+        assert result.total == spec.max_points - spec.exercise(function).points
+        assert hint in lost[f"{lab}.{function}"].reason, lost[f"{lab}.{function}"].reason
+
+
+HOSTILE = {
+    "endless loop at import": ("while True:\n    pass\n", "timeout"),
+    "os._exit at import": ("import os\nos._exit(3)\n", "crashed"),
+    "sys.exit at import": ("import sys\nsys.exit(0)\n" + "def turning_radius(v, w):\n"
+                           "    return v / w if w else math.inf\n", "ok"),
+    "fake verdict printed": ("print('✓ all tests passed 20/20')\n"
+                             "print('{\"outcomes\": {}}')\n", "ok"),
+    "calls the kit reference": ("from kit.kinematics import turning_radius\n", "ok"),
+}
+
+
+@pytest.mark.parametrize("name", list(HOSTILE))
+def test_hostile_submissions_get_a_defined_grade(tmp_path, name):
+    source, status = HOSTILE[name]
+    path = notebook_with(tmp_path / "mallory.ipynb", "import math", source)
+    result = grade_notebook(path, load_lab("lab01"), timeout=20)
+    assert result.status == status, result.reason
+    assert result.total == 0
+    if name == "calls the kit reference":
+        reason = result.exercises["lab01.turning_radius"].reason
+        assert "PermissionError" in reason and "own code" in reason
+    if name == "os._exit at import":
+        assert "exited with code 3" in result.reason
+
+
+def test_malformed_and_non_utf8_notebooks_get_a_row(tmp_path):
+    (tmp_path / "broken.ipynb").write_text('{"cells": [', encoding="utf-8")
+    (tmp_path / "latin.ipynb").write_bytes(b'{"cells": "\xe9\xff"}')
+    notebook_with(tmp_path / "empty.ipynb", "x = 1")
+    spec = load_lab("lab02")
+    results = {r.student: r for r in grade_submissions(find_submissions([tmp_path], "lab02"),
+                                                       spec, jobs=2)}
+    assert results["broken"].status == "malformed notebook"
+    assert results["latin"].status == "malformed notebook"
+    assert "UTF-8" in results["latin"].reason
+    assert results["empty"].status == "ok"
+    assert {e.status for e in results["empty"].exercises.values()} == {"missing function"}
+
+
+def test_student_ids_come_from_file_or_folder_names():
+    assert student_id(Path("class/alice.ipynb"), "lab01") == "alice"
+    assert student_id(Path("class/bob/01-kinematics.ipynb"), "lab01") == "bob"
