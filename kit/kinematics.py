@@ -41,11 +41,11 @@ __all__ = [
     "igv_wheel_rpm",
     "inverse_kinematics",
     "motor_speeds_to_twist",
-    "twist_to_motor_speeds",
     "rpm_to_drive_units",
     "saturate_wheel_speeds",
     "turning_radius",
     "turning_radius_from_wheels",
+    "twist_to_motor_speeds",
     "twist_to_wheel_speeds",
     "wheel_speeds_to_twist",
 ]
