@@ -9,6 +9,9 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 PYTEST_ARGS ?=
+JUPYTER_ARGS ?=
+# JupyterLab refuses to run as root unless told; containers often run as root
+ROOT_FLAG := $(if $(filter 0,$(shell id -u)),--allow-root,)
 export KIT_FAST ?= 1
 
 .PHONY: lab demo test lint typecheck pytest nbval solutions release bench clean
@@ -22,7 +25,7 @@ $(STAMP): pyproject.toml
 lab: $(STAMP)
 	mkdir -p work
 	cp -r -n labs/. work/
-	KIT_FAST= $(BIN)/jupyter lab --notebook-dir=work
+	KIT_FAST= $(BIN)/jupyter lab --notebook-dir=work $(ROOT_FLAG) $(JUPYTER_ARGS)
 
 demo: $(STAMP)
 	$(BIN)/python -m sim demo --out out
