@@ -11,11 +11,11 @@ Wheel joints must be named ``right_wheel_joint`` and ``left_wheel_joint``.
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -212,10 +212,22 @@ def _parse_urdf(path: Path) -> tuple[str, tuple[Link, ...], tuple[Joint, ...]]:
     return root.get("name", ""), tuple(links), tuple(joints)
 
 
+def robots_dir() -> Path:
+    """The folder of the shipped robot descriptions, ``hardware/robots``.
+
+    Found with ``importlib.util.find_spec``, which locates the ``hardware`` package without
+    running any of its code: the kit reads these data files and imports nothing of hardware.
+    """
+    spec = importlib.util.find_spec("hardware")
+    if spec is None or not spec.submodule_search_locations:
+        raise RobotDescriptionError("the hardware package (robot descriptions) is not installed")
+    return Path(next(iter(spec.submodule_search_locations))) / "robots"
+
+
 def _resolve(name_or_path: str | Path) -> Path:
     text = str(name_or_path)
     if text in ROBOTS:
-        return Path(str(resources.files("hardware") / "robots" / f"{text}.toml"))
+        return robots_dir() / f"{text}.toml"
     path = Path(text)
     if path.suffix != ".toml":
         raise RobotDescriptionError(
