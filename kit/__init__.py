@@ -10,6 +10,7 @@ pymunk):
 * :mod:`kit.robots`     robot descriptions (URDF + parameters)
 * :mod:`kit.kinematics` differential-drive kinematics, the IGV's RPM equations
 * :mod:`kit.odometry`   encoder ticks → pose, covariance, ``Odometry`` messages
+* :mod:`kit.maps`       occupancy grids in the ROS map_server format (YAML + PGM)
 * :mod:`kit.viz`        plotting (matplotlib, imported lazily)
 """
 

@@ -1,0 +1,78 @@
+import numpy as np
+import pytest
+
+from kit import geometry, maps, msgs
+
+NAV2_TESTMAP_ROWS = [  # nav2_map_server/test/test_constants.cpp, bottom row first
+    [0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+    [100, 100, 100, 100, 0, 0, 100, 100, 100, 0],
+    [100, 100, 100, 100, 0, 0, 100, 100, 100, 0],
+    [100, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+    [100, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+    [100, 0, 0, 0, 0, 0, 100, 100, 0, 0],
+    [100, 0, 0, 0, 0, 0, 100, 100, 0, 0],
+    [100, 0, 0, 0, 0, 0, 100, 100, 0, 0],
+    [100, 0, 0, 0, 0, 0, 100, 100, 0, 0],
+    [100, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+]
+
+
+@pytest.mark.dataset
+@pytest.mark.parametrize("image", ["testmap.png", "testmap.pgm", "testmap.bmp"])
+def test_nav2_testmap_gives_nav2s_golden_grid(shared_data, tmp_path, image):
+    folder = shared_data / "maps" / "nav2-map-server-testmap"
+    yaml = (folder / "testmap.yaml").read_text().replace('"testmap.png"', f'"{folder / image}"')
+    (tmp_path / "m.yaml").write_text(yaml)
+    grid = maps.read_map(tmp_path / "m.yaml")
+    assert (grid.info.width, grid.info.height) == (10, 10)
+    assert grid.info.resolution == pytest.approx(0.1)
+    o = grid.info.origin
+    assert (o.position.x, o.position.y) == (2.0, 3.0)
+    yaw = geometry.quaternion_to_yaw([o.orientation.x, o.orientation.y, o.orientation.z,
+                                      o.orientation.w])
+    assert float(yaw) == pytest.approx(1.0)
+    np.testing.assert_array_equal(grid.data.reshape(10, 10), NAV2_TESTMAP_ROWS)
+
+
+@pytest.mark.dataset
+@pytest.mark.parametrize(("folder", "name", "counts"), [
+    ("turtlebot3-world-nav2", "map.yaml", (795, 7939, 138722)),
+    ("olin-mac-first-floor-real", "mac_1st_floor_final.yaml", (16871, 1523647, 0)),
+    ("turtlebot3-house-slam-toolbox-png", "map8.yaml", (2979, 59899, 0)),
+])
+def test_real_maps_follow_map_server_exactly(shared_data, folder, name, counts):
+    grid = maps.read_map(shared_data / "maps" / folder / name)
+    occupied, free, unknown = (int(np.sum(grid.data == v)) for v in (100, 0, -1))
+    assert (occupied, free, unknown) == counts
+
+
+def test_write_then_read_round_trips(tmp_path):
+    rng = np.random.default_rng(0)
+    data = rng.choice(np.array([-1, 0, 100], dtype=np.int8), 12 * 7)
+    info = msgs.MapMetaData(resolution=0.05, width=12, height=7,
+                            origin=msgs.Pose(msgs.Point(-1.5, 2.25, 0.0)))
+    grid = msgs.OccupancyGrid(msgs.Header(frame_id="map"), info, data)
+    maps.write_map(grid, tmp_path / "saved.yaml")
+    back = maps.read_map(tmp_path / "saved.yaml")
+    assert back.info == grid.info
+    np.testing.assert_array_equal(back.data, grid.data)
+
+
+def test_truncated_and_malformed_maps_name_the_file(tmp_path):
+    (tmp_path / "m.pgm").write_bytes(b"P5\n4 4\n255\n" + bytes(10))
+    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with pytest.raises(maps.MapError, match=r"m\.pgm: truncated: 10 bytes"):
+        maps.read_map(tmp_path / "m.yaml")
+    (tmp_path / "n.yaml").write_text("image: m.pgm\norigin: [0, 0, 0]\n")
+    with pytest.raises(maps.MapError, match=r"n\.yaml: missing 'resolution'"):
+        maps.read_map(tmp_path / "n.yaml")
+    (tmp_path / "o.yaml").write_text("image: nothere.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with pytest.raises(maps.MapError, match="does not exist"):
+        maps.read_map(tmp_path / "o.yaml")
+    (tmp_path / "p.yaml").write_text("image: [unclosed\n")
+    with pytest.raises(maps.MapError, match="not valid YAML"):
+        maps.read_map(tmp_path / "p.yaml")
+    (tmp_path / "q.pgm").write_bytes(b"GIF89a")
+    (tmp_path / "q.yaml").write_text("image: q.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with pytest.raises(maps.MapError, match="not a PGM"):
+        maps.read_map(tmp_path / "q.yaml")
