@@ -165,7 +165,8 @@ def write_map(grid: msgs.OccupancyGrid, path: str | Path, free_thresh: float = 0
     image = np.full(cells.shape, 205, dtype=np.uint8)
     image[(cells >= 0) & (cells <= 25)] = 254
     image[cells >= 65] = 0
-    header = f"P5\n# CREATOR: kit.maps {info.resolution:.3f} m/pix\n{info.width} {info.height}\n255\n"
+    header = (f"P5\n# CREATOR: kit.maps {info.resolution:.3f} m/pix\n"
+              f"{info.width} {info.height}\n255\n")
     pgm_path.write_bytes(header.encode() + np.flipud(image).tobytes())
     o = info.origin
     yaw = float(geometry.quaternion_to_yaw([o.orientation.x, o.orientation.y, o.orientation.z,
