@@ -53,6 +53,10 @@ __all__ = [
 
 def _frozen_array(value: ArrayLike, dtype: Any, shape: tuple[int, ...] | None,
                   name: str) -> NDArray[Any]:
+    if (isinstance(value, np.ndarray) and not value.flags.writeable and value.dtype == dtype
+            and value.base is None and (value.shape == shape or (shape is None and
+                                                                 value.ndim == 1))):
+        return value  # already a read-only array of its own: sharing it is safe
     a = np.array(value, dtype=dtype, copy=True)
     if a.ndim == 0:
         raise ValueError(f"{name} must be a sequence, got the scalar {value!r}")
@@ -65,23 +69,14 @@ def _frozen_array(value: ArrayLike, dtype: Any, shape: tuple[int, ...] | None,
 
 
 class Message:
-    """Base of all kit messages: ROS type name, array-aware equality, dict view."""
+    """Base of all kit messages: ROS type name, array-aware equality."""
 
     ROS_TYPE: ClassVar[str] = ""
     # field name -> (numpy dtype, fixed shape or None for a variable-length sequence)
     ARRAYS: ClassVar[dict[str, tuple[Any, tuple[int, ...] | None]]] = {}
-
     # scalar fields that ROS stores as float32: rounded to float32 precision on construction,
     # so that a message equals itself after a trip through a bag
     FLOAT32: ClassVar[tuple[str, ...]] = ()
-
-    def __post_init__(self) -> None:
-        for name in self.FLOAT32:
-            object.__setattr__(self, name, float(np.float32(getattr(self, name))))
-        for name, (dtype, shape) in self.ARRAYS.items():
-            object.__setattr__(
-                self, name, _frozen_array(getattr(self, name), dtype, shape,
-                                          f"{type(self).__name__}.{name}"))
 
     def __eq__(self, other: object) -> bool:
         if type(other) is not type(self):
@@ -96,6 +91,19 @@ class Message:
         return True
 
     __hash__ = None  # type: ignore[assignment]
+
+
+class _Normalised(Message):
+    """A message with arrays or float32 fields, normalised on construction. (Messages without
+    them skip ``__post_init__`` altogether: they are built at sensor rates.)"""
+
+    def __post_init__(self) -> None:
+        for name in self.FLOAT32:
+            object.__setattr__(self, name, float(np.float32(getattr(self, name))))
+        for name, (dtype, shape) in self.ARRAYS.items():
+            object.__setattr__(
+                self, name, _frozen_array(getattr(self, name), dtype, shape,
+                                          f"{type(self).__name__}.{name}"))
 
 
 # ---------------------------------------------------------------- builtin_interfaces, std_msgs
@@ -175,7 +183,7 @@ class Pose(Message):
 
 
 @dataclass(frozen=True, eq=False)
-class PoseWithCovariance(Message):
+class PoseWithCovariance(_Normalised):
     """Pose with a row-major 6×6 covariance over (x, y, z, rot x, rot y, rot z)."""
 
     ROS_TYPE: ClassVar[str] = "geometry_msgs/msg/PoseWithCovariance"
@@ -202,7 +210,7 @@ class Twist(Message):
 
 
 @dataclass(frozen=True, eq=False)
-class TwistWithCovariance(Message):
+class TwistWithCovariance(_Normalised):
     ROS_TYPE: ClassVar[str] = "geometry_msgs/msg/TwistWithCovariance"
     ARRAYS: ClassVar[dict[str, tuple[Any, tuple[int, ...] | None]]] = {
         "covariance": (np.float64, (36,))}
@@ -251,7 +259,7 @@ class Path(Message):
 
 
 @dataclass(frozen=True, eq=False)
-class MapMetaData(Message):
+class MapMetaData(_Normalised):
     """Resolution [m/cell] and size of a grid whose cell (0, 0) corner sits at ``origin``."""
 
     ROS_TYPE: ClassVar[str] = "nav_msgs/msg/MapMetaData"
@@ -264,7 +272,7 @@ class MapMetaData(Message):
 
 
 @dataclass(frozen=True, eq=False)
-class OccupancyGrid(Message):
+class OccupancyGrid(_Normalised):
     """Row-major occupancy in percent (0 free … 100 occupied, −1 unknown), row 0 at the origin."""
 
     ROS_TYPE: ClassVar[str] = "nav_msgs/msg/OccupancyGrid"
@@ -284,7 +292,7 @@ class OccupancyGrid(Message):
 # ---------------------------------------------------------------- sensor_msgs
 
 @dataclass(frozen=True, eq=False)
-class LaserScan(Message):
+class LaserScan(_Normalised):
     """One planar scan; beam ``i`` points at ``angle_min + i * angle_increment`` (CCW from x)."""
 
     ROS_TYPE: ClassVar[str] = "sensor_msgs/msg/LaserScan"
@@ -311,7 +319,7 @@ class LaserScan(Message):
 
 
 @dataclass(frozen=True, eq=False)
-class Imu(Message):
+class Imu(_Normalised):
     """Orientation, angular velocity [rad/s] and linear acceleration [m/s²] with 3×3 covariances.
 
     A covariance whose first element is −1 means "this quantity is not provided" (ROS rule).
@@ -334,7 +342,7 @@ class Imu(Message):
 
 
 @dataclass(frozen=True, eq=False)
-class JointState(Message):
+class JointState(_Normalised):
     """Joint positions [rad], velocities [rad/s] and efforts [N·m], matched by ``name``."""
 
     ROS_TYPE: ClassVar[str] = "sensor_msgs/msg/JointState"

@@ -1,0 +1,224 @@
+"""Sensor models: wheel encoders, IMU and 2-D lidars, each seeded and at its device's rate.
+
+Sensors see only what a real one would: the encoders count the *wheels'* rotation (slip
+included), the IMU measures the body with noise and drifting biases, the lidar measures ranges
+to walls and people (not glass) with noise and dropouts. Ground truth is never in their output.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from kit import msgs
+from sim.raycast import cast_rays, segments_near
+
+__all__ = ["Imu", "Lidar", "encoder_counts"]
+
+FloatArray = NDArray[np.float64]
+GRAVITY = 9.80665
+
+
+def encoder_counts(wheel_angle: FloatArray, ticks_per_wheel_turn: float, offset: NDArray[Any],
+                   counter_bits: int) -> tuple[int, int]:
+    """Raw (right, left) counter readings for total wheel rotations [rad]: quantised to whole
+    ticks, started at ``offset``, wrapped to the counter's width."""
+    counts = np.floor(np.asarray(wheel_angle) * (ticks_per_wheel_turn / (2 * math.pi)))
+    wrapped = (counts.astype(np.int64) + offset) % (1 << counter_bits)
+    return int(wrapped[0]), int(wrapped[1])
+
+
+class Imu:
+    """An IMU in ``imu_link``: yaw (absolute, as the BNO055's fusion or a compass gives it),
+    yaw rate and linear acceleration (gravity included, REP-145), each with white noise; the
+    yaw and the gyro carry biases that drift as random walks.
+
+    Parameters come from the robot's ``[sensors.imu]``; ``gyro_noise_std = 0`` means the device
+    reports no rates (the OS5000), which the message marks with covariance −1.
+    """
+
+    YAW_DRIFT = 2e-4      # rad/sqrt(s), random walk of the fused yaw's bias (assumed)
+    GYRO_DRIFT = 5e-5     # rad/s/sqrt(s), random walk of the gyro bias (assumed)
+
+    def __init__(self, params: Mapping[str, Any], mount: tuple[float, float],
+                 rng: np.random.Generator) -> None:
+        self.rate = float(params.get("rate", 100.0))
+        self.frame_id = str(params.get("frame_id", "imu_link"))
+        self.yaw_std = float(params.get("yaw_noise_std", 0.0))
+        self.gyro_std = float(params.get("gyro_noise_std", 0.0))
+        self.accel_std = float(params.get("accel_noise_std", 0.0))
+        self.mount = mount
+        self.rng = rng
+        self.yaw_bias = 0.0
+        self.gyro_bias = float(rng.normal(0.0, float(params.get("gyro_bias_std", 0.0))))
+        self.period = 1.0 / self.rate
+        self.next_time = 0.0
+        nan_or = -1.0
+        self.cov_orientation = self._cov(self.yaw_std ** 2 or 1e-6, 1e-6)
+        self.cov_gyro = self._cov(self.gyro_std ** 2, 1e-6) if self.gyro_std else \
+            self._unavailable(nan_or)
+        self.cov_accel = self._cov(self.accel_std ** 2, self.accel_std ** 2) if \
+            self.accel_std else self._unavailable(nan_or)
+
+    @staticmethod
+    def _cov(z: float, other: float) -> FloatArray:
+        c = np.diag([other, other, z]).ravel()
+        c.flags.writeable = False
+        return c
+
+    @staticmethod
+    def _unavailable(value: float) -> FloatArray:
+        c = np.zeros(9)
+        c[0] = value
+        c.flags.writeable = False
+        return c
+
+    def due(self, time: float) -> bool:
+        return time + 1e-12 >= self.next_time
+
+    def measure(self, time: float, yaw: float, yaw_rate: float, yaw_accel: float,
+                accel_body: tuple[float, float]) -> msgs.Imu:
+        """One reading at ``time`` of the body's true yaw, rates and base_link acceleration."""
+        dt = self.period
+        self.next_time += dt
+        rng = self.rng
+        self.yaw_bias += self.YAW_DRIFT * math.sqrt(dt) * float(rng.standard_normal())
+        self.gyro_bias += self.GYRO_DRIFT * math.sqrt(dt) * float(rng.standard_normal())
+        measured_yaw = yaw + self.yaw_bias + self.yaw_std * float(rng.standard_normal())
+        rate = yaw_rate + self.gyro_bias + self.gyro_std * float(rng.standard_normal()) \
+            if self.gyro_std else 0.0
+        # acceleration at the mounting point: a + alpha x r + omega x (omega x r)
+        mx, my = self.mount
+        ax = accel_body[0] - yaw_accel * my - yaw_rate * yaw_rate * mx
+        ay = accel_body[1] + yaw_accel * mx - yaw_rate * yaw_rate * my
+        if self.accel_std:
+            noise = rng.normal(0.0, self.accel_std, 3)
+            accel = msgs.Vector3(ax + noise[0], ay + noise[1], GRAVITY + noise[2])
+        else:
+            accel = msgs.Vector3()
+        half = 0.5 * measured_yaw
+        return msgs.Imu(
+            header=msgs.Header(msgs.Time.from_sec(time), self.frame_id),
+            orientation=msgs.Quaternion(0.0, 0.0, math.sin(half), math.cos(half)),
+            orientation_covariance=self.cov_orientation,
+            angular_velocity=msgs.Vector3(0.0, 0.0, rate),
+            angular_velocity_covariance=self.cov_gyro,
+            linear_acceleration=accel,
+            linear_acceleration_covariance=self.cov_accel,
+        )
+
+
+class Lidar:
+    """A planar lidar in ``laser_link`` whose beams are taken one after another.
+
+    Beam ``i`` of a scan is measured at ``stamp + i * time_increment`` from where the sensor
+    is at that instant, so a scan taken while the robot turns is bent, as a slow-spinning
+    RPLidar's is. ``time_increment = 0`` (a depth camera) takes all beams at once.
+
+    The simulator calls :meth:`collect` every physics step with the sensor's pose at the start
+    and the end of the step and the people's discs; the beams that fall in the step are
+    queued, and when a scan is complete all its beams are cast at once (vectorised).
+    """
+
+    def __init__(self, params: Mapping[str, Any], mount: tuple[float, float, float],
+                 rng: np.random.Generator, rate: float | None = None,
+                 beams: int | None = None) -> None:
+        model = str(params.get("model", "rplidar_a1"))
+        self.frame_id = str(params.get("frame_id", "laser_link"))
+        self.rate = float(rate if rate is not None else params.get("scan_rate", 5.5))
+        self.angle_min = float(params.get("angle_min", -math.pi))
+        span = float(params.get("angle_max", math.pi)) - self.angle_min
+        full_circle = abs(span - 2 * math.pi) < 1e-9
+        if beams is None:
+            if "angle_increment" in params:
+                beams = round(span / float(params["angle_increment"])) + \
+                    (0 if full_circle else 1)
+            else:
+                beams = 360
+        self.beams = int(beams)
+        self.increment = span / self.beams if full_circle else span / (self.beams - 1)
+        self.range_min = float(params.get("range_min", 0.1))
+        self.range_max = float(params.get("range_max", 12.0))
+        self.noise_std = float(params.get("range_noise_std", 0.0))
+        self.dropout = float(params.get("dropout", 0.01 if model == "rplidar_a1" else 0.0))
+        if model == "kinect_depth_row":
+            self.time_increment = 0.0
+        elif model == "lms291":
+            self.time_increment = 1.0 / 75.0 / (2 * math.pi / self.increment)
+        else:
+            self.time_increment = 1.0 / (self.rate * self.beams)
+        self.mount = mount
+        self.rng = rng
+        self.scan_start = 0.0
+        self._times: list[float] = []
+        self._poses: list[FloatArray] = []
+        self._people: list[FloatArray] = []
+        self.last_ranges: FloatArray = np.full(self.beams, np.inf)
+        """float64 ranges of the last scan, before noise (for tests against geometry)."""
+
+    def beam_times(self) -> FloatArray:
+        return self.scan_start + self.time_increment * np.arange(self.beams)
+
+    def collect(self, t0: float, t1: float, pose0: FloatArray, pose1: FloatArray,
+                people: FloatArray, segments: FloatArray, circles: FloatArray,
+                ) -> msgs.LaserScan | None:
+        """Record one physics step (sensor-carrier poses at ``t0`` and ``t1``, the people's
+        discs during it); return a scan once its last beam's time has passed."""
+        if not self._times:
+            self._times.append(t0)
+            self._poses.append(pose0)
+        self._times.append(t1)
+        self._poses.append(pose1)
+        self._people.append(people)
+        if t1 + 1e-12 < self.scan_start + self.time_increment * (self.beams - 1):
+            return None
+        return self._finish(segments, circles)
+
+    def _finish(self, segments: FloatArray, circles: FloatArray) -> msgs.LaserScan:
+        times = np.array(self._times)
+        poses = np.array(self._poses)
+        yaw = np.unwrap(poses[:, 2])
+        beam_t = self.beam_times()
+        x = np.interp(beam_t, times, poses[:, 0])
+        y = np.interp(beam_t, times, poses[:, 1])
+        heading = np.interp(beam_t, times, yaw)
+        mx, my, myaw = self.mount
+        c, s = np.cos(heading), np.sin(heading)
+        origins = np.column_stack([x + c * mx - s * my, y + s * mx + c * my])
+        angles = heading + myaw + self.angle_min + self.increment * np.arange(self.beams)
+        near = segments_near(segments, origins.mean(axis=0), self.range_max + 1.0)
+        ranges = cast_rays(origins, angles, near, circles, self.range_max)
+        if self._people and self._people[0].size:
+            # each beam sees the people where they were during its physics step
+            step = np.clip(np.searchsorted(times, beam_t) - 1, 0, len(self._people) - 1)
+            discs = np.stack(self._people)[step]
+            ranges = np.minimum(ranges, cast_rays(origins, angles, np.empty((0, 4)), discs,
+                                                  self.range_max))
+        # keep the last step: the next scan's first beams may fall inside it
+        self._times, self._poses = self._times[-2:], self._poses[-2:]
+        self._people = self._people[-1:]
+        self.last_ranges = ranges.copy()
+        measured = ranges + self.rng.normal(0.0, self.noise_std, self.beams) \
+            if self.noise_std else ranges.copy()
+        if self.dropout:
+            measured[self.rng.random(self.beams) < self.dropout] = np.inf
+        measured[measured > self.range_max] = np.inf
+        measured[measured < self.range_min] = -np.inf  # REP-117: too close to measure
+        scan = msgs.LaserScan(
+            header=msgs.Header(msgs.Time.from_sec(self.scan_start), self.frame_id),
+            angle_min=self.angle_min,
+            angle_max=self.angle_min + self.increment * (self.beams - 1),
+            angle_increment=self.increment,
+            time_increment=self.time_increment,
+            scan_time=1.0 / self.rate,
+            range_min=self.range_min,
+            range_max=self.range_max,
+            ranges=measured.astype(np.float32),
+            intensities=np.where(np.isfinite(measured), 47.0, 0.0).astype(np.float32),
+        )
+        self.scan_start += 1.0 / self.rate
+        return scan

@@ -1,0 +1,429 @@
+"""The simulation: robots with real traction in a pymunk world, sensors, walking people.
+
+Traction follows pymunk's top-down technique (its ``tank`` example): gravity is zero, and each
+driven wheel is tied to a kinematic "ground" body by a ``PivotJoint`` whose ``max_bias`` is 0
+(it matches velocities, never positions) and whose ``max_force`` is the friction the floor can
+give that wheel, ``μ N``. Every step the ground body under a wheel moves at the wheel's rim
+speed along the robot's heading, and with zero sideways speed: as long as the force needed
+stays under ``μ N`` the wheel neither skids nor slides; push harder — accelerate beyond
+traction, drive onto oil — and it slips. The wheels are velocity servos with an acceleration
+limit; the encoders count the servo's rotation, so they count the slip too.
+
+Assumptions, stated once (``Physics``): tyre–floor friction 0.8, oil 0.05, 70 % of the weight
+on the driven wheels, servos that can spin a wheel's rim up at 6 m/s².
+
+Pedestrians are discs of 0.25 m and 70 kg that walk their routes at seeded speeds with the
+same kind of foot traction; they push and can be pushed, and the lidar sees them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pymunk
+from numpy.typing import NDArray
+
+from kit import geometry, kinematics, msgs
+from kit.robots import RobotDescription
+from kit.robots import load as load_robot
+from sim.sensors import Imu, Lidar, encoder_counts
+from sim.world import World, load_world
+
+__all__ = ["Collision", "GroundTruth", "Physics", "Simulation"]
+
+FloatArray = NDArray[np.float64]
+ROBOT, WALL, PERSON = 1, 2, 3
+Command = msgs.Twist | Sequence[float] | NDArray[np.float64] | None
+
+
+@dataclass(frozen=True)
+class Physics:
+    dt: float = 0.01
+    """physics step [s] (100 Hz)."""
+    substeps: int = 2
+    friction: float = 0.8
+    """tyre on an indoor floor."""
+    oil_friction: float = 0.05
+    weight_on_wheels: float = 0.7
+    """fraction of the robot's weight the driven wheels carry (the rest on casters)."""
+    motor_acceleration: float = 6.0
+    """m/s² at the wheel rim: how fast a servo spins its wheel up."""
+    gravity: float = 9.80665
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """What really happened; never part of any sensor output."""
+
+    time: float
+    pose: FloatArray
+    """(x, y, yaw) of base_link in the world [m, m, rad]."""
+    velocity: FloatArray
+    """(v, ω) in base_link [m/s, rad/s]."""
+    wheel_slip: FloatArray
+    """(right, left): rim speed minus the wheel's speed over the ground [m/s]."""
+    in_oil: bool
+
+
+@dataclass(frozen=True)
+class Collision:
+    time: float
+    robot: int
+    other: str
+    """"wall", "person" or "robot"."""
+
+
+@dataclass
+class _Robot:
+    description: RobotDescription
+    body: pymunk.Body
+    grounds: list[pymunk.Body]
+    joints: list[pymunk.PivotJoint]
+    half_track: float
+    traction: float
+    lidar: Lidar | None
+    imu: Imu | None
+    topic_prefix: str
+    tick_offset: NDArray[np.int64]
+    wheel_speed: FloatArray = field(default_factory=lambda: np.zeros(2))
+    wheel_target: FloatArray = field(default_factory=lambda: np.zeros(2))
+    wheel_angle: FloatArray = field(default_factory=lambda: np.zeros(2))
+    pose: FloatArray = field(default_factory=lambda: np.zeros(3))
+    velocity: FloatArray = field(default_factory=lambda: np.zeros(2))
+    world_velocity: tuple[float, float] = (0.0, 0.0)
+    accel: tuple[float, float] = (0.0, 0.0)
+    yaw_accel: float = 0.0
+    slip: FloatArray = field(default_factory=lambda: np.zeros(2))
+    next_joint_state: float = 0.0
+
+
+@dataclass
+class _Person:
+    body: pymunk.Body
+    ground: pymunk.Body
+    route: FloatArray
+    target: int
+    direction: int
+    speed: float
+
+
+class Simulation:
+    """A world, one or more robots, their sensors and walking people, on a sim clock.
+
+    Parameters
+    ----------
+    world : str or World
+        ``"office"``, ``"aisle"``, ``"pillars"``, ``"square"``, a world file, a map_server
+        ``.yaml``, or a :class:`World`.
+    robot : str or RobotDescription or sequence of them
+        The robot(s); several robots get topic prefixes ``/robot0``, ``/robot1``, ….
+    seed : int
+        Seeds every random draw (noise, people); the same seed gives the same streams.
+    people : int
+        Pedestrians, spread over the world's routes.
+    start : (x, y, yaw) or a sequence of them
+        Start poses; defaults to the world's spawn (robots after the first 1 m apart).
+    lidar_rate, lidar_beams : optional
+        Override the lidar's scan rate [Hz] and beams per scan (e.g. 10 Hz, 360 beams).
+    sensors : bool
+        False turns the lidar and IMU off (physics and encoders only).
+    """
+
+    def __init__(self, world: str | World = "office",
+                 robot: str | RobotDescription | Sequence[str | RobotDescription] = "uiabot",
+                 seed: int = 0, people: int = 0, start: Any = None,
+                 physics: Physics | None = None, lidar_rate: float | None = None,
+                 lidar_beams: int | None = None, sensors: bool = True) -> None:
+        self.world = world if isinstance(world, World) else load_world(world)
+        robots = [robot] if isinstance(robot, (str, RobotDescription)) else list(robot)
+        self.descriptions = [r if isinstance(r, RobotDescription) else load_robot(r)
+                             for r in robots]
+        self.physics = physics or Physics()
+        self.n_people = int(people)
+        if self.n_people and not self.world.routes:
+            raise ValueError(f"world {self.world.name!r} has no routes for people to walk")
+        self._start = start
+        self._lidar_rate, self._lidar_beams = lidar_rate, lidar_beams
+        self._sensors = sensors
+        self.reset(seed)
+
+    # ------------------------------------------------------------------ building
+    def reset(self, seed: int | None = None) -> None:
+        """Start again from the start poses with a fresh world; ``seed`` re-seeds the noise."""
+        if seed is not None:
+            self.seed = int(seed)
+        self.rng = np.random.default_rng(self.seed)
+        self.time = 0.0
+        self.collisions: list[Collision] = []
+        space = pymunk.Space()
+        space.gravity = (0.0, 0.0)
+        space.collision_slop = 0.001
+        space.iterations = 10
+        self.space = space
+        static = space.static_body
+        for seg in self.world.segments:
+            shape = pymunk.Segment(static, (seg[0], seg[1]), (seg[2], seg[3]), 0.02)
+            shape.collision_type = WALL
+            shape.friction = 0.5
+            space.add(shape)
+        for cx, cy, radius in self.world.circles:
+            pillar = pymunk.Circle(static, radius, (cx, cy))
+            pillar.collision_type = WALL
+            space.add(pillar)
+        starts = self._start_poses()
+        self.robots = [self._add_robot(d, pose, i) for i, (d, pose) in
+                       enumerate(zip(self.descriptions, starts, strict=True))]
+        self.people = [self._add_person(i) for i in range(self.n_people)]
+        self._body_index = {r.body: i for i, r in enumerate(self.robots)}
+        space.on_collision(ROBOT, WALL, begin=self._on_contact, data="wall")
+        space.on_collision(ROBOT, PERSON, begin=self._on_contact, data="person")
+        space.on_collision(ROBOT, ROBOT, begin=self._on_contact, data="robot")
+        self._people_discs = self._discs()
+        for r in self.robots:
+            self._read_state(r)
+
+    def _start_poses(self) -> list[FloatArray]:
+        n = len(self.descriptions)
+        if self._start is None:
+            spawn = np.asarray(self.world.spawn, float)
+            c, s = math.cos(spawn[2]), math.sin(spawn[2])
+            return [spawn + np.array([-s * i, c * i, 0.0]) for i in range(n)]
+        given = np.asarray(self._start, float)
+        poses = [given] if given.ndim == 1 else list(given)
+        if len(poses) != n:
+            raise ValueError(f"{n} robots need {n} start poses; got {len(poses)}")
+        return [geometry.check_pose(p, "start") for p in poses]
+
+    def _add_robot(self, d: RobotDescription, pose: FloatArray, index: int) -> _Robot:
+        ph = self.physics
+        footprint = [tuple(p) for p in d.footprint]
+        body = pymunk.Body(d.mass, pymunk.moment_for_poly(d.mass, footprint))
+        body.position = (float(pose[0]), float(pose[1]))
+        body.angle = float(pose[2])
+        shape = pymunk.Poly(body, footprint)
+        shape.collision_type = ROBOT
+        shape.friction = 0.5
+        self.space.add(body, shape)
+        traction = ph.friction * d.mass * ph.gravity * ph.weight_on_wheels / 2
+        grounds, joints = [], []
+        for y in (-d.half_track, d.half_track):  # right, left
+            ground = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            joint = pymunk.PivotJoint(body, ground, (0.0, y), (0.0, 0.0))
+            joint.max_bias = 0.0
+            joint.max_force = traction
+            joint.collide_bodies = False
+            self.space.add(ground, joint)
+            grounds.append(ground)
+            joints.append(joint)
+        lidar = imu = None
+        if self._sensors and "lidar" in d.sensors:
+            lj = d.joint("laser_joint") if any(j.name == "laser_joint" for j in d.joints) \
+                else None
+            mount = (float(lj.xyz[0]), float(lj.xyz[1]), float(lj.rpy[2])) if lj else \
+                (0.0, 0.0, 0.0)
+            lidar = Lidar(d.sensors["lidar"], mount, np.random.default_rng(self.rng.integers(
+                2**63)), self._lidar_rate, self._lidar_beams)
+        if self._sensors and "imu" in d.sensors:
+            ij = d.joint("imu_joint") if any(j.name == "imu_joint" for j in d.joints) else None
+            mount2 = (float(ij.xyz[0]), float(ij.xyz[1])) if ij else (0.0, 0.0)
+            imu = Imu(d.sensors["imu"], mount2, np.random.default_rng(self.rng.integers(2**63)))
+        prefix = "" if len(self.descriptions) == 1 else f"/robot{index}"
+        offset = self.rng.integers(0, 1 << min(d.counter_bits, 62), 2, dtype=np.int64)
+        return _Robot(d, body, grounds, joints, d.half_track, traction, lidar, imu, prefix,
+                      offset)
+
+    def _add_person(self, index: int) -> _Person:
+        route = self.world.routes[index % len(self.world.routes)]
+        leg = int(self.rng.integers(0, max(1, len(route) - 1)))
+        f = float(self.rng.uniform(0.0, 1.0))
+        a, b = route[leg], route[min(leg + 1, len(route) - 1)]
+        start = a + f * (b - a)
+        body = pymunk.Body(70.0, float("inf"))
+        body.position = (float(start[0]), float(start[1]))
+        shape = pymunk.Circle(body, 0.25)
+        shape.collision_type = PERSON
+        shape.friction = 0.5
+        ground = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        joint = pymunk.PivotJoint(body, ground, (0.0, 0.0), (0.0, 0.0))
+        joint.max_bias = 0.0
+        joint.max_force = 70.0 * 3.0
+        self.space.add(body, shape, ground, joint)
+        return _Person(body, ground, route, min(leg + 1, len(route) - 1), 1,
+                       float(self.rng.uniform(0.8, 1.4)))
+
+    def _on_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: Any) -> None:
+        for shape in arbiter.shapes:
+            if shape.body is None:
+                continue
+            index = self._body_index.get(shape.body)
+            if index is not None:
+                self.collisions.append(Collision(self.time, index, str(data)))
+                break
+
+    # ------------------------------------------------------------------ stepping
+    def _discs(self) -> FloatArray:
+        if not self.people:
+            return np.empty((0, 3))
+        return np.array([[p.body.position.x, p.body.position.y, 0.25] for p in self.people])
+
+    def _walk(self) -> None:
+        for p in self.people:
+            pos = np.array([p.body.position.x, p.body.position.y])
+            goal = p.route[p.target]
+            offset = goal - pos
+            dist = float(np.hypot(*offset))
+            if dist < 0.3:
+                if len(p.route) > 1:
+                    nxt = p.target + p.direction
+                    if not 0 <= nxt < len(p.route):
+                        p.direction = -p.direction
+                        nxt = p.target + p.direction
+                    p.target = nxt
+                p.speed = float(self.rng.uniform(0.8, 1.4))
+                goal = p.route[p.target]
+                offset = goal - pos
+                dist = float(np.hypot(*offset))
+            v = offset / dist * p.speed if dist > 1e-9 else np.zeros(2)
+            p.ground.velocity = (float(v[0]), float(v[1]))
+
+    def _set_command(self, r: _Robot, cmd: Command) -> None:
+        d = r.description
+        if cmd is None:
+            return
+        if isinstance(cmd, msgs.Twist):
+            target = kinematics.twist_to_wheel_speeds(cmd.linear.x, cmd.angular.z,
+                                                      d.wheel_radius, d.wheel_separation)
+        else:
+            target = np.asarray(cmd, dtype=float)
+            if target.shape != (2,) or not np.all(np.isfinite(target)):
+                raise ValueError(f"a wheel command is (right, left) in rad/s; got {cmd!r}")
+        r.wheel_target = kinematics.saturate_wheel_speeds(target, d.max_wheel_speed)
+
+    def _drive(self, r: _Robot, dt: float) -> None:
+        d = r.description
+        limit = self.physics.motor_acceleration / d.wheel_radius * dt
+        r.wheel_speed = r.wheel_speed + np.clip(r.wheel_target - r.wheel_speed, -limit, limit)
+        r.wheel_angle = r.wheel_angle + r.wheel_speed * dt
+        body = r.body
+        angle = body.angle
+        px, py = body.position
+        c, s = math.cos(angle), math.sin(angle)
+        oily = len(self.world.oil) > 0
+        oil_force = self.physics.oil_friction / self.physics.friction * r.traction
+        # the ground bodies' positions do not matter: anchored at their centres and never
+        # rotating, they only lend the joints their velocity
+        for k, y in enumerate((-r.half_track, r.half_track)):
+            rim = float(r.wheel_speed[k]) * d.wheel_radius
+            r.grounds[k].velocity = (rim * c, rim * s)
+            if oily:
+                slippery = self.world.in_oil(px - s * y, py + c * y)
+                r.joints[k].max_force = oil_force if slippery else r.traction
+
+    def _read_state(self, r: _Robot, dt: float | None = None) -> None:
+        b = r.body
+        yaw = math.remainder(b.angle, 2 * math.pi)
+        if yaw >= math.pi:  # remainder may give +pi; the kit's angles live in [-pi, pi)
+            yaw -= 2 * math.pi
+        vx, vy = b.velocity
+        c, s = math.cos(b.angle), math.sin(b.angle)
+        v_forward = c * vx + s * vy
+        w = float(b.angular_velocity)
+        if dt:
+            # acceleration in base_link: the change of the world velocity, rotated in
+            ax_w = (vx - r.world_velocity[0]) / dt
+            ay_w = (vy - r.world_velocity[1]) / dt
+            r.accel = (c * ax_w + s * ay_w, -s * ax_w + c * ay_w)
+            r.yaw_accel = (w - float(r.velocity[1])) / dt
+        r.world_velocity = (vx, vy)
+        r.pose = np.array([b.position.x, b.position.y, yaw])
+        r.velocity = np.array([v_forward, w])
+        rim = r.wheel_speed * r.description.wheel_radius
+        ground_speed = np.array([v_forward + w * r.half_track, v_forward - w * r.half_track])
+        r.slip = rim - ground_speed
+
+    def step(self, cmd: Command | Mapping[int, Command] = None) -> list[tuple[str, Any]]:
+        """Advance by one physics step (``physics.dt``).
+
+        ``cmd`` is a ``Twist`` (``linear.x`` [m/s], ``angular.z`` [rad/s]), wheel speeds
+        ``(right, left)`` [rad/s], ``None`` (keep the last command), or a mapping from robot
+        index to any of these. Returns the sensor messages produced in this step as
+        ``(topic, message)`` pairs, stamped with the sim clock.
+        """
+        commands = cmd if isinstance(cmd, Mapping) else {0: cmd}
+        for index, c in commands.items():
+            self._set_command(self.robots[index], c)
+        ph = self.physics
+        t0 = self.time
+        t1 = round((self.time + ph.dt) * 1e9) * 1e-9
+        step_index = round(t1 / ph.dt)
+        if self.people and step_index % 10 == 0:
+            self._walk()  # people decide where to go ten times a second
+        before = [r.pose.copy() for r in self.robots]
+        for r in self.robots:
+            self._drive(r, ph.dt)
+        sub = ph.dt / ph.substeps
+        for _ in range(ph.substeps):
+            self.space.step(sub)
+        self.time = t1
+        out: list[tuple[str, Any]] = []
+        discs = self._discs()
+        for i, r in enumerate(self.robots):
+            self._read_state(r, ph.dt)
+            if r.lidar is not None:
+                scan = r.lidar.collect(t0, t1, before[i], r.pose, discs,
+                                       self.world.lidar_segments, self.world.circles)
+                if scan is not None:
+                    out.append((r.topic_prefix + "/scan", scan))
+            if r.imu is not None and r.imu.due(t1):
+                out.append((r.topic_prefix + "/imu",
+                            r.imu.measure(t1, float(r.pose[2]), float(r.velocity[1]),
+                                          r.yaw_accel, r.accel)))
+            if t1 + 1e-12 >= r.next_joint_state:
+                r.next_joint_state += 0.02
+                out.append((r.topic_prefix + "/joint_states", self.joint_state(i)))
+        return out
+
+    def run(self, seconds: float, cmd: Command | Mapping[int, Command] = None
+            ) -> list[tuple[str, Any]]:
+        """Step for ``seconds`` with one command; all messages produced, in order."""
+        out = self.step(cmd)
+        for _ in range(round(seconds / self.physics.dt) - 1):
+            out.extend(self.step())
+        return out
+
+    # ------------------------------------------------------------------ reading
+    def clock(self) -> msgs.Time:
+        return msgs.Time.from_sec(self.time)
+
+    def encoder_ticks(self, robot: int = 0) -> tuple[int, int]:
+        """Raw (right, left) encoder counter readings, as the motor controller reports them."""
+        r = self.robots[robot]
+        d = r.description
+        return encoder_counts(r.wheel_angle, d.ticks_per_wheel_turn, r.tick_offset,
+                              d.counter_bits)
+
+    def joint_state(self, robot: int = 0) -> msgs.JointState:
+        """Wheel positions [rad] from the encoders (quantised) and the servos' speeds."""
+        r = self.robots[robot]
+        per_rad = r.description.ticks_per_wheel_turn / (2 * math.pi)
+        position = np.floor(r.wheel_angle * per_rad) / per_rad
+        return msgs.JointState(msgs.Header(self.clock(), ""),
+                               ("right_wheel_joint", "left_wheel_joint"), position,
+                               r.wheel_speed.copy(), np.zeros(0))
+
+    def ground_truth(self, robot: int = 0) -> GroundTruth:
+        r = self.robots[robot]
+        return GroundTruth(self.time, r.pose.copy(), r.velocity.copy(), r.slip.copy(),
+                           self.world.in_oil(float(r.pose[0]), float(r.pose[1])))
+
+    def people_positions(self) -> FloatArray:
+        """(P, 2) positions of the pedestrians [m] (ground truth)."""
+        return self._discs()[:, :2]
+
+    def static_transforms(self, robot: int = 0) -> msgs.TFMessage:
+        """``/tf_static``: the robot's URDF joints at the sim clock."""
+        return msgs.TFMessage(self.robots[robot].description.static_transforms(self.clock()))

@@ -1,0 +1,244 @@
+"""Static worlds: walls, glass, boxes, pillars, oil on the floor, and the people's routes.
+
+A world file is TOML (``sim/worlds/*.toml`` are the built-in ones)::
+
+    name = "square"
+    spawn = [2.0, 2.0, 0.0]                       # x, y, yaw of the first robot
+    [[walls]]                                     # a polyline of wall segments
+    material = "wall"                             # or "glass": solid, invisible to lidar
+    points = [[0, 0], [10, 0], [10, 10]]
+    [[boxes]]                                     # solid rectangles
+    center = [3, 2]
+    size = [1.6, 0.8]
+    [[circles]]                                   # solid discs (pillars)
+    center = [3, 3.6]
+    radius = 0.25
+    [[oil]]                                       # slippery floor, [xmin, ymin, xmax, ymax]
+    rect = [4, 1, 6, 3]
+    [[routes]]                                    # a pedestrian walks these points to and fro
+    points = [[8, 8], [8, 5]]
+
+A ROS map_server map (``.yaml``) is a world too: its occupied cells become boxes (runs of
+cells merged into rectangles), and its spawn is the map's first free cell near the origin.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from kit import maps, msgs
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = ["BUILTIN_WORLDS", "World", "WorldError", "load_world", "world_from_grid"]
+
+BUILTIN_WORLDS = ("aisle", "office", "pillars", "square")
+WORLD_DIR = Path(__file__).resolve().parent / "worlds"
+MATERIALS = ("wall", "glass")
+
+FloatArray = NDArray[np.float64]
+
+
+class WorldError(ValueError):
+    """A world file that is missing or malformed; the message names the file."""
+
+
+@dataclass(frozen=True, eq=False)
+class World:
+    """Static geometry in the world frame (metres). Arrays are read-only."""
+
+    name: str
+    description: str
+    segments: FloatArray
+    """(M, 4) wall segments [x1, y1, x2, y2], boxes' edges included."""
+    segment_glass: NDArray[np.bool_]
+    """(M,) True for glass: solid to bodies, invisible to the lidar."""
+    boxes: FloatArray
+    """(B, 4) solid rectangles [xmin, ymin, xmax, ymax] (their edges are in ``segments``)."""
+    circles: FloatArray
+    """(K, 3) solid discs [cx, cy, radius]."""
+    oil: FloatArray
+    """(P, 4) slippery rectangles [xmin, ymin, xmax, ymax]."""
+    spawn: FloatArray
+    routes: tuple[FloatArray, ...]
+
+    @property
+    def lidar_segments(self) -> FloatArray:
+        """The segments a lidar sees (glass left out)."""
+        return self.segments[~self.segment_glass]
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        pts = [self.segments[:, :2], self.segments[:, 2:]]
+        if len(self.circles):
+            pts.append(self.circles[:, :2] - self.circles[:, 2:3])
+            pts.append(self.circles[:, :2] + self.circles[:, 2:3])
+        allpts = np.vstack(pts)
+        return (float(allpts[:, 0].min()), float(allpts[:, 1].min()),
+                float(allpts[:, 0].max()), float(allpts[:, 1].max()))
+
+    def in_oil(self, x: float, y: float) -> bool:
+        for x0, y0, x1, y1 in self.oil:
+            if x0 <= x <= x1 and y0 <= y <= y1:
+                return True
+        return False
+
+
+def _frozen(a: Any, dtype: Any, shape_tail: tuple[int, ...]) -> NDArray[Any]:
+    arr = np.array(a, dtype=dtype).reshape((-1, *shape_tail)) if shape_tail else \
+        np.array(a, dtype=dtype)
+    arr.flags.writeable = False
+    return arr
+
+
+def _box_segments(box: tuple[float, float, float, float]) -> list[list[float]]:
+    x0, y0, x1, y1 = box
+    return [[x0, y0, x1, y0], [x1, y0, x1, y1], [x1, y1, x0, y1], [x0, y1, x0, y0]]
+
+
+def _build(name: str, description: str, walls: list[tuple[list[list[float]], str]],
+           boxes: list[tuple[float, float, float, float]], circles: list[list[float]],
+           oil: list[list[float]], spawn: list[float], routes: list[list[list[float]]],
+           where: str) -> World:
+    segments: list[list[float]] = []
+    glass: list[bool] = []
+    for points, material in walls:
+        if material not in MATERIALS:
+            raise WorldError(f"{where}: material must be one of {MATERIALS}; got {material!r}")
+        pts = np.asarray(points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
+            raise WorldError(f"{where}: walls need 2 or more [x, y] points; got {points!r}")
+        for a, b in itertools.pairwise(pts):
+            segments.append([*a, *b])
+            glass.append(material == "glass")
+    for box in boxes:
+        for seg in _box_segments(box):
+            segments.append(seg)
+            glass.append(False)
+    if not segments and not circles:
+        raise WorldError(f"{where}: a world needs at least one wall, box or circle")
+    all_values = np.array([v for s in segments for v in s] + [v for c in circles for v in c] +
+                          list(spawn), dtype=float)
+    if not np.all(np.isfinite(all_values)):
+        raise WorldError(f"{where}: coordinates must be finite numbers")
+    if len(spawn) != 3:
+        raise WorldError(f"{where}: spawn is [x, y, yaw]; got {spawn!r}")
+    return World(
+        name=name, description=description,
+        segments=_frozen(segments, float, (4,)),
+        segment_glass=_frozen(glass, bool, ()),
+        boxes=_frozen(boxes, float, (4,)),
+        circles=_frozen(circles, float, (3,)),
+        oil=_frozen(oil, float, (4,)),
+        spawn=_frozen(spawn, float, ()),
+        routes=tuple(_frozen(r, float, (2,)) for r in routes),
+    )
+
+
+def _world_file(path: Path) -> World:
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise WorldError(f"{path}: no such world file") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise WorldError(f"{path}: not valid TOML ({exc})") from None
+    try:
+        walls = [(w["points"], str(w.get("material", "wall"))) for w in data.get("walls", [])]
+        boxes = []
+        for b in data.get("boxes", []):
+            (cx, cy), (w, h) = b["center"], b["size"]
+            if b.get("material", "wall") != "wall":
+                raise WorldError(f"{path}: boxes are solid walls; use walls for glass")
+            boxes.append((cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2))
+        circles = [[*c["center"], c["radius"]] for c in data.get("circles", [])]
+        oil = [list(o["rect"]) for o in data.get("oil", [])]
+        routes = [r["points"] for r in data.get("routes", [])]
+        spawn = list(data.get("spawn", [0.0, 0.0, 0.0]))
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, WorldError):
+            raise
+        raise WorldError(f"{path}: malformed entry ({type(exc).__name__}: {exc})") from None
+    return _build(str(data.get("name", path.stem)), str(data.get("description", "")), walls,
+                  boxes, circles, oil, spawn, routes, str(path))
+
+
+def world_from_grid(grid: msgs.OccupancyGrid, name: str = "map") -> World:
+    """A world whose boxes are the grid's occupied cells (value ≥ 65), runs merged.
+
+    Horizontal runs of occupied cells become rectangles, and identical runs in consecutive
+    rows merge into one taller rectangle, which keeps a building's walls to a few hundred
+    boxes. The map's origin yaw is honoured.
+    """
+    info = grid.info
+    res = float(info.resolution)
+    cells = grid.data.reshape(info.height, info.width) >= 65
+    open_runs: dict[tuple[int, int], int] = {}  # (start, end) -> first row
+    rects: list[tuple[int, int, int, int]] = []  # col0, row0, col1, row1 (exclusive)
+    for row in range(info.height + 1):
+        runs: set[tuple[int, int]] = set()
+        if row < info.height:
+            line = np.concatenate([[False], cells[row], [False]])
+            edges = np.flatnonzero(line[1:] != line[:-1])
+            runs = {(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)}
+        for run in list(open_runs):
+            if run not in runs:
+                rects.append((run[0], open_runs.pop(run), run[1], row))
+        for run in runs:
+            open_runs.setdefault(run, row)
+    o = info.origin
+    yaw = math.atan2(2 * (o.orientation.w * o.orientation.z), 1 - 2 * o.orientation.z ** 2)
+    c, s = math.cos(yaw), math.sin(yaw)
+    walls: list[tuple[list[list[float]], str]] = []
+    boxes: list[tuple[float, float, float, float]] = []
+    for c0, r0, c1, r1 in sorted(rects):
+        corners = np.array([[c0, r0], [c1, r0], [c1, r1], [c0, r1], [c0, r0]], float) * res
+        if yaw == 0.0:
+            x0, y0 = corners[0] + (o.position.x, o.position.y)
+            x1, y1 = corners[2] + (o.position.x, o.position.y)
+            boxes.append((float(x0), float(y0), float(x1), float(y1)))
+        else:  # a rotated map: keep the rectangles as closed polylines
+            rotated = corners @ np.array([[c, s], [-s, c]]) + (o.position.x, o.position.y)
+            walls.append((rotated.tolist(), "wall"))
+    from scipy.ndimage import distance_transform_edt
+
+    free = grid.data.reshape(info.height, info.width) == 0
+    if not free.any():
+        raise WorldError(f"{name}: the map has no free cell to start in")
+    # start where the most room is: the free cell farthest from any non-free cell
+    clearance = distance_transform_edt(free)
+    row, col = np.unravel_index(int(np.argmax(clearance)), clearance.shape)
+    local = np.array([(col + 0.5) * res, (row + 0.5) * res])
+    spawn = [float(o.position.x + c * local[0] - s * local[1]),
+             float(o.position.y + s * local[0] + c * local[1]), 0.0]
+    return _build(name, f"map_server map, {info.width} x {info.height} cells at {res:g} m",
+                  walls, boxes, [], [], spawn, [], name)
+
+
+def load_world(name_or_path: str | Path) -> World:
+    """A built-in world (``"office"``, ``"aisle"``, ``"pillars"``, ``"square"``), a world file
+    (``.toml``) or a map_server map (``.yaml``)."""
+    text = str(name_or_path)
+    if text in BUILTIN_WORLDS:
+        return _world_file(WORLD_DIR / f"{text}.toml")
+    path = Path(text)
+    if path.suffix in (".yaml", ".yml"):
+        try:
+            grid = maps.read_map(path)
+        except maps.MapError as exc:
+            raise WorldError(str(exc)) from None
+        return world_from_grid(grid, path.stem)
+    if path.suffix == ".toml":
+        return _world_file(path)
+    raise WorldError(f"{text!r} is neither a built-in world {BUILTIN_WORLDS}, a world file "
+                     f"(.toml) nor a map_server map (.yaml)")
