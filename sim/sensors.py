@@ -161,7 +161,8 @@ class Lidar:
         """float64 ranges of the last scan, before noise (for tests against geometry)."""
 
     def beam_times(self) -> FloatArray:
-        return self.scan_start + self.time_increment * np.arange(self.beams)
+        return np.asarray(self.scan_start + self.time_increment * np.arange(self.beams),
+                          dtype=np.float64)
 
     def collect(self, t0: float, t1: float, pose0: FloatArray, pose1: FloatArray,
                 people: FloatArray, segments: FloatArray, circles: FloatArray,

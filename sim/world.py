@@ -217,8 +217,8 @@ def world_from_grid(grid: msgs.OccupancyGrid, name: str = "map") -> World:
         raise WorldError(f"{name}: the map has no free cell to start in")
     # start where the most room is: the free cell farthest from any non-free cell
     clearance = distance_transform_edt(free)
-    row, col = np.unravel_index(int(np.argmax(clearance)), clearance.shape)
-    local = np.array([(col + 0.5) * res, (row + 0.5) * res])
+    best_row, best_col = np.unravel_index(int(np.argmax(clearance)), clearance.shape)
+    local = np.array([(int(best_col) + 0.5) * res, (int(best_row) + 0.5) * res])
     spawn = [float(o.position.x + c * local[0] - s * local[1]),
              float(o.position.y + s * local[0] + c * local[1]), 0.0]
     return _build(name, f"map_server map, {info.width} x {info.height} cells at {res:g} m",
