@@ -98,7 +98,7 @@ class _Robot:
     accel: tuple[float, float] = (0.0, 0.0)
     yaw_accel: float = 0.0
     slip: FloatArray = field(default_factory=lambda: np.zeros(2))
-    next_joint_state: float = 0.0
+    next_joint_state: float = 0.02  # 50 Hz, on the multiples of 20 ms
 
 
 @dataclass
