@@ -88,7 +88,7 @@ def snapshot(sim: Simulation, scan: msgs.LaserScan | None = None, robot: int = 0
 
 
 def _draw_robots(ax: Axes, sim: Simulation, poses: FloatArray) -> list[Any]:
-    artists = []
+    artists: list[Any] = []
     for r, pose in zip(sim.robots, poses, strict=True):
         corners = geometry.transform_points(pose, r.description.footprint)
         artists.append(ax.add_patch(Polygon(corners, closed=True, fill=False,
@@ -131,9 +131,10 @@ def animation_html(sim: Simulation, frames: Sequence[Snapshot], interval_ms: int
 
     fig, ax = plt.subplots(figsize=(8, 6))
     plot_world(sim.world, ax)
-    robot_patches = [ax.add_patch(Polygon(r.description.footprint, closed=True, fill=False,
-                                          edgecolor="tab:blue", linewidth=1.5))
-                     for r in sim.robots]
+    robot_patches = [Polygon(r.description.footprint, closed=True, fill=False,
+                             edgecolor="tab:blue", linewidth=1.5) for r in sim.robots]
+    for patch in robot_patches:
+        ax.add_patch(patch)
     people = ax.scatter([], [], s=120, color="tab:orange")
     points = ax.scatter([], [], s=3, color="tab:red")
     track, = ax.plot([], [], color="tab:blue", linewidth=0.8)
