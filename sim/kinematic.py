@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -117,31 +118,53 @@ class DiffDriveModel:
         return int(wrapped[0]), int(wrapped[1])
 
 
-def drive_square(model: DiffDriveModel, side: float = 2.0, speed: float | None = None,
+def drive_square(model: Any, side: float = 2.0, speed: float | None = None,
                  turn_rate: float | None = None, laps: int = 1,
-                 counter_clockwise: bool = True) -> dict[str, NDArray[np.float64]]:
+                 counter_clockwise: bool = True, robot: int = 0
+                 ) -> dict[str, NDArray[np.float64]]:
     """Drive ``laps`` squares: straight ``side`` metres, turn 90° in place, four times a lap.
 
+    ``model`` is a :class:`DiffDriveModel` or a :class:`sim.Simulation` (its robot ``robot``).
     The commands are open loop (timed), like the UMBmark test. Returns the samples at every
     step: ``time`` (N,), ``true_pose`` (N, 3), ``ticks`` (N, 2) raw counters, ``command``
     (N, 2) as (v, ω).
     """
-    r = model.robot
-    v = speed if speed is not None else 0.8 * r.max_linear_velocity
-    w = turn_rate if turn_rate is not None else 0.5 * r.max_angular_velocity
+    from kit import msgs
+    from sim.simulation import Simulation
+
+    if isinstance(model, Simulation):
+        description, dt = model.robots[robot].description, model.physics.dt
+
+        def step(linear: float, angular: float) -> None:
+            model.step({robot: msgs.Twist(msgs.Vector3(linear, 0.0, 0.0),
+                                          msgs.Vector3(0.0, 0.0, angular))})
+
+        def pose() -> NDArray[np.float64]:
+            return model.ground_truth(robot).pose
+
+        def ticks() -> tuple[int, int]:
+            return model.encoder_ticks(robot)
+    else:
+        description, dt, step = model.robot, model.dt, model.step
+
+        def pose() -> NDArray[np.float64]:
+            return np.asarray(model.pose.copy())
+
+        ticks = model.encoder_ticks
+    v = speed if speed is not None else 0.8 * description.max_linear_velocity
+    w = turn_rate if turn_rate is not None else 0.5 * description.max_angular_velocity
     w = w if counter_clockwise else -w
     segments = []
     for _ in range(4 * laps):
         segments.append((v, 0.0, side / v))
         segments.append((0.0, w, (math.pi / 2) / abs(w)))
-    times, poses, ticks, commands = [model.time], [model.pose.copy()], \
-        [model.encoder_ticks()], [(0.0, 0.0)]
+    times, poses, counts, commands = [model.time], [pose()], [ticks()], [(0.0, 0.0)]
     for linear, angular, duration in segments:
-        for _ in range(round(duration / model.dt)):
-            model.step(linear, angular)
+        for _ in range(round(duration / dt)):
+            step(linear, angular)
             times.append(model.time)
-            poses.append(model.pose.copy())
-            ticks.append(model.encoder_ticks())
+            poses.append(pose())
+            counts.append(ticks())
             commands.append((linear, angular))
     return {"time": np.array(times), "true_pose": np.array(poses),
-            "ticks": np.array(ticks, dtype=np.int64), "command": np.array(commands)}
+            "ticks": np.array(counts, dtype=np.int64), "command": np.array(commands)}

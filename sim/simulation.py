@@ -13,7 +13,8 @@ Assumptions, stated once (``Physics``): tyre–floor friction 0.8, oil 0.05, 70 
 on the driven wheels, servos that can spin a wheel's rim up at 6 m/s².
 
 Pedestrians are discs of 0.25 m and 70 kg that walk their routes at seeded speeds with the
-same kind of foot traction; they push and can be pushed, and the lidar sees them.
+same kind of foot traction, stepping aside for robots that come close; they push and can be
+pushed, and the lidar sees them.
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ __all__ = ["Collision", "GroundTruth", "Physics", "Simulation"]
 
 FloatArray = NDArray[np.float64]
 ROBOT, WALL, PERSON = 1, 2, 3
+_NO_DISCS = np.empty((0, 3))
+_NO_DISCS.flags.writeable = False
 Command = msgs.Twist | Sequence[float] | NDArray[np.float64] | None
 
 
@@ -52,6 +55,10 @@ class Physics:
     """fraction of the robot's weight the driven wheels carry (the rest on casters)."""
     motor_acceleration: float = 6.0
     """m/s² at the wheel rim: how fast a servo spins its wheel up."""
+    wheel_radius_errors: tuple[float, float] = (0.0, 0.0)
+    """(right, left) fractions by which the wheels' true rolling radii differ from the
+    nominal one the encoders are converted with (worn or unevenly loaded tyres: the
+    systematic error UMBmark measures)."""
     gravity: float = 9.80665
 
 
@@ -97,7 +104,6 @@ class _Robot:
     world_velocity: tuple[float, float] = (0.0, 0.0)
     accel: tuple[float, float] = (0.0, 0.0)
     yaw_accel: float = 0.0
-    slip: FloatArray = field(default_factory=lambda: np.zeros(2))
     next_joint_state: float = 0.02  # 50 Hz, on the multiples of 20 ms
 
 
@@ -250,7 +256,7 @@ class Simulation:
         ground = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         joint = pymunk.PivotJoint(body, ground, (0.0, 0.0), (0.0, 0.0))
         joint.max_bias = 0.0
-        joint.max_force = 70.0 * 3.0
+        joint.max_force = 70.0 * 1.5  # feet push with about 1.5 m/s² on 70 kg
         self.space.add(body, shape, ground, joint)
         return _Person(body, ground, route, min(leg + 1, len(route) - 1), 1,
                        float(self.rng.uniform(0.8, 1.4)))
@@ -267,8 +273,8 @@ class Simulation:
     # ------------------------------------------------------------------ stepping
     def _discs(self) -> FloatArray:
         if not self.people:
-            return np.empty((0, 3))
-        return np.array([[p.body.position.x, p.body.position.y, 0.25] for p in self.people])
+            return _NO_DISCS
+        return np.array([(*p.body.position, 0.25) for p in self.people])
 
     def _walk(self) -> None:
         for p in self.people:
@@ -288,6 +294,16 @@ class Simulation:
                 offset = goal - pos
                 dist = float(np.hypot(*offset))
             v = offset / dist * p.speed if dist > 1e-9 else np.zeros(2)
+            # people keep out of robots' way: a push away from any robot within 1.5 m,
+            # stronger the closer it is (a "social force")
+            for r in self.robots:
+                away = pos - r.pose[:2]
+                gap = float(np.hypot(*away))
+                if 1e-6 < gap < 1.5:
+                    v = v + away / gap * 1.5 * (1.5 - gap) / 1.5
+            speed = float(np.hypot(*v))
+            if speed > 1.5:
+                v = v * (1.5 / speed)
             p.ground.velocity = (float(v[0]), float(v[1]))
 
     def _set_command(self, r: _Robot, cmd: Command) -> None:
@@ -305,31 +321,39 @@ class Simulation:
 
     def _drive(self, r: _Robot, dt: float) -> None:
         d = r.description
-        limit = self.physics.motor_acceleration / d.wheel_radius * dt
-        r.wheel_speed = r.wheel_speed + np.clip(r.wheel_target - r.wheel_speed, -limit, limit)
-        r.wheel_angle = r.wheel_angle + r.wheel_speed * dt
+        ph = self.physics
+        limit = ph.motor_acceleration / d.wheel_radius * dt
         body = r.body
         angle = body.angle
-        px, py = body.position
         c, s = math.cos(angle), math.sin(angle)
         oily = len(self.world.oil) > 0
-        oil_force = self.physics.oil_friction / self.physics.friction * r.traction
+        if oily:
+            px, py = body.position
+            oil_force = ph.oil_friction / ph.friction * r.traction
+        speeds = r.wheel_speed
         # the ground bodies' positions do not matter: anchored at their centres and never
         # rotating, they only lend the joints their velocity
-        for k, y in enumerate((-r.half_track, r.half_track)):
-            rim = float(r.wheel_speed[k]) * d.wheel_radius
+        for k in (0, 1):
+            change = float(r.wheel_target[k]) - float(speeds[k])
+            speed = float(speeds[k]) + (limit if change > limit else
+                                        -limit if change < -limit else change)
+            speeds[k] = speed
+            r.wheel_angle[k] += speed * dt
+            rim = speed * d.wheel_radius * (1.0 + ph.wheel_radius_errors[k])
             r.grounds[k].velocity = (rim * c, rim * s)
             if oily:
+                y = -r.half_track if k == 0 else r.half_track
                 slippery = self.world.in_oil(px - s * y, py + c * y)
                 r.joints[k].max_force = oil_force if slippery else r.traction
 
     def _read_state(self, r: _Robot, dt: float | None = None) -> None:
         b = r.body
-        yaw = math.remainder(b.angle, 2 * math.pi)
+        angle = b.angle
+        yaw = math.remainder(angle, 2 * math.pi)
         if yaw >= math.pi:  # remainder may give +pi; the kit's angles live in [-pi, pi)
             yaw -= 2 * math.pi
         vx, vy = b.velocity
-        c, s = math.cos(b.angle), math.sin(b.angle)
+        c, s = math.cos(angle), math.sin(angle)
         v_forward = c * vx + s * vy
         w = float(b.angular_velocity)
         if dt:
@@ -339,11 +363,9 @@ class Simulation:
             r.accel = (c * ax_w + s * ay_w, -s * ax_w + c * ay_w)
             r.yaw_accel = (w - float(r.velocity[1])) / dt
         r.world_velocity = (vx, vy)
-        r.pose = np.array([b.position.x, b.position.y, yaw])
+        px, py = b.position
+        r.pose = np.array([px, py, yaw])
         r.velocity = np.array([v_forward, w])
-        rim = r.wheel_speed * r.description.wheel_radius
-        ground_speed = np.array([v_forward + w * r.half_track, v_forward - w * r.half_track])
-        r.slip = rim - ground_speed
 
     def step(self, cmd: Command | Mapping[int, Command] = None) -> list[tuple[str, Any]]:
         """Advance by one physics step (``physics.dt``).
@@ -399,6 +421,13 @@ class Simulation:
     def clock(self) -> msgs.Time:
         return msgs.Time.from_sec(self.time)
 
+    def preset_encoders(self, right: int, left: int, robot: int = 0) -> None:
+        """Make the encoder counters read (right, left) now (e.g. just below a roll-over)."""
+        r = self.robots[robot]
+        current = np.array(self.encoder_ticks(robot), dtype=np.int64) - r.tick_offset
+        r.tick_offset = (np.array([right, left], dtype=np.int64) - current) % \
+            (1 << r.description.counter_bits)
+
     def encoder_ticks(self, robot: int = 0) -> tuple[int, int]:
         """Raw (right, left) encoder counter readings, as the motor controller reports them."""
         r = self.robots[robot]
@@ -417,7 +446,11 @@ class Simulation:
 
     def ground_truth(self, robot: int = 0) -> GroundTruth:
         r = self.robots[robot]
-        return GroundTruth(self.time, r.pose.copy(), r.velocity.copy(), r.slip.copy(),
+        v_forward, w = float(r.velocity[0]), float(r.velocity[1])
+        rim = r.wheel_speed * r.description.wheel_radius * \
+            (1.0 + np.asarray(self.physics.wheel_radius_errors))
+        ground_speed = np.array([v_forward + w * r.half_track, v_forward - w * r.half_track])
+        return GroundTruth(self.time, r.pose.copy(), r.velocity.copy(), rim - ground_speed,
                            self.world.in_oil(float(r.pose[0]), float(r.pose[1])))
 
     def people_positions(self) -> FloatArray:

@@ -28,6 +28,7 @@ import itertools
 import math
 import sys
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -73,10 +74,12 @@ class World:
     spawn: FloatArray
     routes: tuple[FloatArray, ...]
 
-    @property
+    @cached_property
     def lidar_segments(self) -> FloatArray:
         """The segments a lidar sees (glass left out)."""
-        return self.segments[~self.segment_glass]
+        visible = self.segments[~self.segment_glass]
+        visible.flags.writeable = False
+        return visible
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:

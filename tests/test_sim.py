@@ -1,3 +1,5 @@
+"""The kinematic model (sim.kinematic) and the demo."""
+
 import math
 
 import numpy as np
@@ -73,8 +75,13 @@ def test_oil_patch_makes_odometry_worse():
     assert errors[1] > 3 * errors[0]
 
 
-def test_demo_writes_its_figure(tmp_path, capsys):
+def test_demo_drives_the_route_and_writes_figure_and_bag(tmp_path, capsys):
+    from sim.bag import read_bag
+
     assert demo_module.main(tmp_path, seed=1) == 0
     out = capsys.readouterr().out
-    assert (tmp_path / "demo_square.png").stat().st_size > 10_000
-    assert "uiabot" in out and "eddie" in out and "final position error" in out
+    assert (tmp_path / "demo_office.png").stat().st_size > 20_000
+    assert "9 of 9 waypoints reached" in out and "collisions: 0" in out
+    topics = {t for t, _, _ in read_bag(tmp_path / "demo_office")}
+    assert topics == {"/scan", "/odom", "/imu", "/joint_states", "/cmd_vel", "/tf",
+                      "/tf_static"}
