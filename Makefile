@@ -1,6 +1,6 @@
 # The kit's three commands. Each one creates .venv from pyproject.toml on first use.
 #   make lab    copy labs/ into work/ (never overwriting your files) and start JupyterLab there
-#   make demo   headless see-think-act run: each robot drives a square; writes out/demo_square.png
+#   make demo   headless see-think-act run: the Uiabot's route through the office (PNG + bag)
 #   make test   ruff, mypy, pytest (with the labs executed) and nbval on solutions/
 # Instructors: make solutions re-executes solutions/ (KIT_FAST=1) and regenerates labs/.
 
@@ -54,6 +54,7 @@ release: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_core.py
 	$(BIN)/python benchmarks/bench_grader.py
+	$(BIN)/python -m sim bench
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from kit import msgs
-from sim.raycast import cast_rays
+from sim.raycast import cast_rays, cast_scan
 from sim.simulation import Simulation
 from sim.world import load_world
 
@@ -38,17 +38,25 @@ def real_time_factor(make: object, seconds: float, repeats: int) -> float:
     return statistics.median(factors)
 
 
-def raycaster_rate(repeats: int) -> float:
+def raycaster_rate(repeats: int, compiled: bool) -> float:
+    """Beams per second for 360-beam scans in the office (walls, and 5 people when compiled)."""
     world = load_world("office")
     rng = np.random.default_rng(0)
     origins = np.column_stack([rng.uniform(1, 19, 360), rng.uniform(5.2, 6.8, 360)])
     angles = rng.uniform(-np.pi, np.pi, 360)
+    people = rng.uniform(1, 19, (1, 5, 3))
+    people[..., 2] = 0.25
+    step = np.zeros(360, dtype=np.int64)
     rates = []
     for _ in range(repeats):
         start = time.perf_counter()
         n = 0
         while time.perf_counter() - start < 0.5:
-            cast_rays(origins, angles, world.lidar_segments, world.circles, 12.0)
+            if compiled:
+                cast_scan(origins, angles, world.lidar_segments, world.circles, people, step,
+                          12.0)
+            else:
+                cast_rays(origins, angles, world.lidar_segments, world.circles, 12.0)
             n += 360
         rates.append(n / (time.perf_counter() - start))
     return statistics.median(rates)
@@ -97,8 +105,10 @@ def main(quick: bool = False) -> int:
         lambda: Simulation("square", ["uiabot"] * 20, seed=1, people=20, start=grid,
                            lidar_rate=10.0, lidar_beams=360), min(seconds, 3.0), 1)
     print(f"20 Uiabots with 360-beam lidars at 10 Hz among 20 people: {crowd:.1f}x")
-    print(f"raycaster (numpy, float64, office walls): {raycaster_rate(repeats) / 1e3:.0f} k "
-          f"beams/s")
+    print(f"raycaster, numpy reference (office walls): "
+          f"{raycaster_rate(repeats, False) / 1e3:.0f} k beams/s")
+    print(f"raycaster, compiled scan caster (office walls + 5 people): "
+          f"{raycaster_rate(repeats, True) / 1e3:.0f} k beams/s")
     print(f"ir-sim, same office walls, 360-beam lidar at 10 Hz: {irsim_factor(seconds)}")
     return 0
 

@@ -13,9 +13,10 @@ nearest hit wins; no hit within ``max_range`` gives ``inf``.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["cast_rays", "segments_near"]
+__all__ = ["cast_rays", "cast_scan", "segments_near"]
 
 FloatArray = NDArray[np.float64]
 
@@ -91,3 +92,64 @@ def cast_rays(origins: FloatArray, angles: FloatArray, segments: FloatArray,
         best = np.minimum(best, t.min(axis=1))
     best[best > max_range] = np.inf
     return best
+
+
+@njit(cache=True, fastmath=False)
+def _cast_scan(ox: FloatArray, oy: FloatArray, angles: FloatArray, segments: FloatArray,
+               circles: FloatArray, people: FloatArray, people_step: NDArray[np.int64],
+               max_range: float) -> FloatArray:  # pragma: no cover - compiled by numba
+    n = angles.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        px, py = ox[i], oy[i]
+        dx, dy = np.cos(angles[i]), np.sin(angles[i])
+        best = np.inf
+        for j in range(segments.shape[0]):
+            ax, ay = segments[j, 0], segments[j, 1]
+            ex, ey = segments[j, 2] - ax, segments[j, 3] - ay
+            denom = dx * ey - dy * ex
+            if denom == 0.0:
+                continue
+            wx, wy = ax - px, ay - py
+            t = (wx * ey - wy * ex) / denom
+            if t <= 1e-12 or t >= best:
+                continue
+            u = (wx * dy - wy * dx) / denom
+            if 0.0 <= u <= 1.0:
+                best = t
+        for k in range(circles.shape[0] + people.shape[1]):
+            if k < circles.shape[0]:
+                cx, cy, radius = circles[k, 0], circles[k, 1], circles[k, 2]
+            else:
+                row = people[people_step[i], k - circles.shape[0]]
+                cx, cy, radius = row[0], row[1], row[2]
+            qx, qy = px - cx, py - cy
+            beta = dx * qx + dy * qy
+            gamma = qx * qx + qy * qy - radius * radius
+            disc = beta * beta - gamma
+            if gamma <= 0.0 or disc < 0.0:
+                continue
+            t = -beta - np.sqrt(disc)
+            if 1e-12 < t < best:
+                best = t
+        out[i] = best if best <= max_range else np.inf
+    return out
+
+
+def cast_scan(origins: FloatArray, angles: FloatArray, segments: FloatArray,
+              circles: FloatArray, people: FloatArray, people_step: NDArray[np.int64],
+              max_range: float) -> FloatArray:
+    """:func:`cast_rays` compiled (numba), with moving discs: ray ``i`` sees the discs
+    ``people[people_step[i]]`` (shape (S, P, 3)), where the people were when it was taken.
+
+    Agrees with :func:`cast_rays` to rounding (a test checks both on random scenes); about
+    ten times faster, which is what lets a 10 Hz, 360-beam lidar run far faster than real time.
+    """
+    o = np.ascontiguousarray(origins, dtype=np.float64)
+    return _cast_scan(o[:, 0].copy(), o[:, 1].copy(),
+                      np.ascontiguousarray(angles, dtype=np.float64),
+                      np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4),
+                      np.ascontiguousarray(circles, dtype=np.float64).reshape(-1, 3),
+                      np.ascontiguousarray(people, dtype=np.float64).reshape(
+                          len(people), -1, 3) if len(people) else np.zeros((1, 0, 3)),
+                      np.ascontiguousarray(people_step, dtype=np.int64), float(max_range))

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kit import msgs
-from sim.raycast import cast_rays, segments_near
+from sim.raycast import cast_scan, segments_near
 
 __all__ = ["Imu", "Lidar", "encoder_counts"]
 
@@ -57,6 +57,8 @@ class Imu:
         self.gyro_bias = float(rng.normal(0.0, float(params.get("gyro_bias_std", 0.0))))
         self.period = 1.0 / self.rate
         self.next_time = 0.0
+        self._normals = np.empty(0)
+        self._next_normal = 0
         nan_or = -1.0
         self.cov_orientation = self._cov(self.yaw_std ** 2 or 1e-6, 1e-6)
         self.cov_gyro = self._cov(self.gyro_std ** 2, 1e-6) if self.gyro_std else \
@@ -80,24 +82,32 @@ class Imu:
     def due(self, time: float) -> bool:
         return time + 1e-12 >= self.next_time
 
+    def _draws(self) -> tuple[float, ...]:
+        """Seven standard normal draws, taken from a block drawn ahead (fewer rng calls)."""
+        i = self._next_normal
+        if i + 7 > len(self._normals):
+            self._normals = self.rng.standard_normal(7 * 256)
+            i = 0
+        self._next_normal = i + 7
+        return tuple(self._normals[i:i + 7].tolist())
+
     def measure(self, time: float, yaw: float, yaw_rate: float, yaw_accel: float,
                 accel_body: tuple[float, float]) -> msgs.Imu:
         """One reading at ``time`` of the body's true yaw, rates and base_link acceleration."""
         dt = self.period
         self.next_time += dt
-        rng = self.rng
-        self.yaw_bias += self.YAW_DRIFT * math.sqrt(dt) * float(rng.standard_normal())
-        self.gyro_bias += self.GYRO_DRIFT * math.sqrt(dt) * float(rng.standard_normal())
-        measured_yaw = yaw + self.yaw_bias + self.yaw_std * float(rng.standard_normal())
-        rate = yaw_rate + self.gyro_bias + self.gyro_std * float(rng.standard_normal()) \
-            if self.gyro_std else 0.0
+        n_yaw_bias, n_gyro_bias, n_yaw, n_rate, n_ax, n_ay, n_az = self._draws()
+        self.yaw_bias += self.YAW_DRIFT * math.sqrt(dt) * n_yaw_bias
+        self.gyro_bias += self.GYRO_DRIFT * math.sqrt(dt) * n_gyro_bias
+        measured_yaw = yaw + self.yaw_bias + self.yaw_std * n_yaw
+        rate = yaw_rate + self.gyro_bias + self.gyro_std * n_rate if self.gyro_std else 0.0
         # acceleration at the mounting point: a + alpha x r + omega x (omega x r)
         mx, my = self.mount
         ax = accel_body[0] - yaw_accel * my - yaw_rate * yaw_rate * mx
         ay = accel_body[1] + yaw_accel * mx - yaw_rate * yaw_rate * my
         if self.accel_std:
-            noise = rng.normal(0.0, self.accel_std, 3)
-            accel = msgs.Vector3(ax + noise[0], ay + noise[1], GRAVITY + noise[2])
+            sd = self.accel_std
+            accel = msgs.Vector3(ax + sd * n_ax, ay + sd * n_ay, GRAVITY + sd * n_az)
         else:
             accel = msgs.Vector3()
         half = 0.5 * measured_yaw
@@ -192,13 +202,11 @@ class Lidar:
         origins = np.column_stack([x + c * mx - s * my, y + s * mx + c * my])
         angles = heading + myaw + self.angle_min + self.increment * np.arange(self.beams)
         near = segments_near(segments, origins.mean(axis=0), self.range_max + 1.0)
-        ranges = cast_rays(origins, angles, near, circles, self.range_max)
-        if self._people and self._people[0].size:
-            # each beam sees the people where they were during its physics step
-            step = np.clip(np.searchsorted(times, beam_t) - 1, 0, len(self._people) - 1)
-            discs = np.stack(self._people)[step]
-            ranges = np.minimum(ranges, cast_rays(origins, angles, np.empty((0, 4)), discs,
-                                                  self.range_max))
+        # each beam sees the people where they were during its physics step
+        step = np.clip(np.searchsorted(times, beam_t) - 1, 0, len(self._people) - 1)
+        people = np.stack(self._people) if self._people and self._people[0].size else \
+            np.zeros((1, 0, 3))
+        ranges = cast_scan(origins, angles, near, circles, people, step, self.range_max)
         # keep the last step: the next scan's first beams may fall inside it
         self._times, self._poses = self._times[-2:], self._poses[-2:]
         self._people = self._people[-1:]

@@ -40,6 +40,9 @@ FloatArray = NDArray[np.float64]
 ROBOT, WALL, PERSON = 1, 2, 3
 _NO_DISCS = np.empty((0, 3))
 _NO_DISCS.flags.writeable = False
+_NO_EFFORT = np.empty(0)
+_NO_EFFORT.flags.writeable = False
+_WHEEL_JOINTS = ("right_wheel_joint", "left_wheel_joint")
 Command = msgs.Twist | Sequence[float] | NDArray[np.float64] | None
 
 
@@ -440,9 +443,10 @@ class Simulation:
         r = self.robots[robot]
         per_rad = r.description.ticks_per_wheel_turn / (2 * math.pi)
         position = np.floor(r.wheel_angle * per_rad) / per_rad
-        return msgs.JointState(msgs.Header(self.clock(), ""),
-                               ("right_wheel_joint", "left_wheel_joint"), position,
-                               r.wheel_speed.copy(), np.zeros(0))
+        velocity = r.wheel_speed.copy()
+        position.flags.writeable = velocity.flags.writeable = False  # handed over, not copied
+        return msgs.JointState(msgs.Header(self.clock(), ""), _WHEEL_JOINTS, position,
+                               velocity, _NO_EFFORT)
 
     def ground_truth(self, robot: int = 0) -> GroundTruth:
         r = self.robots[robot]

@@ -326,3 +326,35 @@ def test_a_nav2_map_is_a_world_the_robot_can_drive_in(shared_data):
     sim = Simulation(world=world, robot="uiabot", seed=1)
     scan = first_scan(sim, twist(0.1))
     assert np.isfinite(scan.ranges).sum() > 100
+
+
+def test_compiled_scan_caster_agrees_with_the_numpy_reference():
+    from sim.raycast import cast_scan
+
+    rng = np.random.default_rng(7)
+    world = load_world("office")
+    for _ in range(5):
+        origins = np.column_stack([rng.uniform(1, 19, 300), rng.uniform(1, 11, 300)])
+        angles = rng.uniform(-np.pi, np.pi, 300)
+        people = rng.uniform(0, 20, (4, 6, 3))
+        people[..., 2] = 0.25
+        step = rng.integers(0, 4, 300)
+        fast = cast_scan(origins, angles, world.lidar_segments, world.circles, people, step, 12.0)
+        reference = np.minimum(
+            cast_rays(origins, angles, world.lidar_segments, world.circles, 12.0),
+            cast_rays(origins, angles, np.empty((0, 4)), people[step], 12.0))
+        assert np.array_equal(np.isinf(fast), np.isinf(reference))
+        finite = np.isfinite(reference)
+        np.testing.assert_allclose(fast[finite], reference[finite], rtol=0, atol=1e-12)
+
+
+@pytest.mark.dataset
+def test_a_real_robots_bag_reads_into_kit_messages(shared_data):
+    from sim.bag import read_bag
+
+    bag = shared_data / "ros2-bags" / "turtlebot4-real-olin-mac-first-floor"
+    counts: dict[str, int] = {}
+    for topic, _t, m in read_bag(bag, topics=["/scan", "/odom", "/cmd_vel"]):
+        counts[topic] = counts.get(topic, 0) + 1
+        assert isinstance(m, (msgs.LaserScan, msgs.Odometry, msgs.Twist))
+    assert counts == {"/scan": 357, "/odom": 920, "/cmd_vel": 192}
