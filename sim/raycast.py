@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["cast_rays", "cast_scan", "segments_near"]
+__all__ = ["beam_geometry", "cast_rays", "cast_scan", "segments_near"]
 
 FloatArray = NDArray[np.float64]
 
@@ -153,3 +153,58 @@ def cast_scan(origins: FloatArray, angles: FloatArray, segments: FloatArray,
                       np.ascontiguousarray(people, dtype=np.float64).reshape(
                           len(people), -1, 3) if len(people) else np.zeros((1, 0, 3)),
                       np.ascontiguousarray(people_step, dtype=np.int64), float(max_range))
+
+
+@njit(cache=True)
+def _beam_geometry(times: FloatArray, poses: FloatArray, scan_start: float,
+                   time_increment: float, n: int, mount_x: float, mount_y: float,
+                   angle0: float, increment: float
+                   ) -> tuple[FloatArray, FloatArray, FloatArray,
+                              NDArray[np.int64]]:  # pragma: no cover - compiled
+    ox = np.empty(n)
+    oy = np.empty(n)
+    angles = np.empty(n)
+    step = np.empty(n, dtype=np.int64)
+    s = 0
+    last = times.shape[0] - 1
+    # unwrap the yaw samples as they are used
+    yaw = poses[:, 2].copy()
+    for k in range(1, yaw.shape[0]):
+        d = yaw[k] - yaw[k - 1]
+        while d > np.pi:
+            d -= 2 * np.pi
+        while d < -np.pi:
+            d += 2 * np.pi
+        yaw[k] = yaw[k - 1] + d
+    for i in range(n):
+        t = scan_start + time_increment * i
+        while s < last - 1 and times[s + 1] < t:
+            s += 1
+        t0, t1 = times[s], times[s + 1]
+        f = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
+        f = min(max(f, 0.0), 1.0)
+        x = poses[s, 0] + f * (poses[s + 1, 0] - poses[s, 0])
+        y = poses[s, 1] + f * (poses[s + 1, 1] - poses[s, 1])
+        h = yaw[s] + f * (yaw[s + 1] - yaw[s])
+        c, sn = np.cos(h), np.sin(h)
+        ox[i] = x + c * mount_x - sn * mount_y
+        oy[i] = y + sn * mount_x + c * mount_y
+        angles[i] = h + angle0 + increment * i
+        step[i] = s
+    return ox, oy, angles, step
+
+
+def beam_geometry(times: FloatArray, poses: FloatArray, scan_start: float,
+                  time_increment: float, n: int, mount: tuple[float, float, float],
+                  angle_min: float, increment: float
+                  ) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
+    """Where each beam of a scan starts and points, and during which recorded step it was
+    taken: beam ``i`` at ``scan_start + i * time_increment``, its sensor pose interpolated
+    between the recorded (``times``, ``poses``) samples (yaw unwrapped), the lidar at
+    ``mount`` (x, y, yaw) in base_link. Returns origins (n, 2), angles (n,), steps (n,)."""
+    ox, oy, angles, step = _beam_geometry(
+        np.ascontiguousarray(times, dtype=np.float64),
+        np.ascontiguousarray(poses, dtype=np.float64), float(scan_start),
+        float(time_increment), int(n), float(mount[0]), float(mount[1]),
+        float(mount[2]) + float(angle_min), float(increment))
+    return np.column_stack([ox, oy]), angles, step

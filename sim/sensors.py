@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from kit import msgs
-from sim.raycast import cast_scan, segments_near
+from sim.raycast import beam_geometry, cast_scan, segments_near
 
 __all__ = ["Imu", "Lidar", "encoder_counts"]
 
@@ -190,20 +190,11 @@ class Lidar:
         return self._finish(segments, circles)
 
     def _finish(self, segments: FloatArray, circles: FloatArray) -> msgs.LaserScan:
-        times = np.array(self._times)
-        poses = np.array(self._poses)
-        yaw = np.unwrap(poses[:, 2])
-        beam_t = self.beam_times()
-        x = np.interp(beam_t, times, poses[:, 0])
-        y = np.interp(beam_t, times, poses[:, 1])
-        heading = np.interp(beam_t, times, yaw)
-        mx, my, myaw = self.mount
-        c, s = np.cos(heading), np.sin(heading)
-        origins = np.column_stack([x + c * mx - s * my, y + s * mx + c * my])
-        angles = heading + myaw + self.angle_min + self.increment * np.arange(self.beams)
-        near = segments_near(segments, origins.mean(axis=0), self.range_max + 1.0)
+        origins, angles, step = beam_geometry(
+            np.array(self._times), np.array(self._poses), self.scan_start,
+            self.time_increment, self.beams, self.mount, self.angle_min, self.increment)
+        near = segments_near(segments, origins[0], self.range_max + 1.0)
         # each beam sees the people where they were during its physics step
-        step = np.clip(np.searchsorted(times, beam_t) - 1, 0, len(self._people) - 1)
         people = np.stack(self._people) if self._people and self._people[0].size else \
             np.zeros((1, 0, 3))
         ranges = cast_scan(origins, angles, near, circles, people, step, self.range_max)
@@ -217,6 +208,9 @@ class Lidar:
             measured[self.rng.random(self.beams) < self.dropout] = np.inf
         measured[measured > self.range_max] = np.inf
         measured[measured < self.range_min] = -np.inf  # REP-117: too close to measure
+        ranges32 = measured.astype(np.float32)
+        intensities = np.where(np.isfinite(ranges32), np.float32(47.0), np.float32(0.0))
+        ranges32.flags.writeable = intensities.flags.writeable = False  # handed over
         scan = msgs.LaserScan(
             header=msgs.Header(msgs.Time.from_sec(self.scan_start), self.frame_id),
             angle_min=self.angle_min,
@@ -226,8 +220,8 @@ class Lidar:
             scan_time=1.0 / self.rate,
             range_min=self.range_min,
             range_max=self.range_max,
-            ranges=measured.astype(np.float32),
-            intensities=np.where(np.isfinite(measured), 47.0, 0.0).astype(np.float32),
+            ranges=ranges32,
+            intensities=intensities,
         )
         self.scan_start += 1.0 / self.rate
         return scan

@@ -109,6 +109,14 @@ class _Robot:
     yaw_accel: float = 0.0
     next_joint_state: float = 0.02  # 50 Hz, on the multiples of 20 ms
 
+    @property
+    def topics(self) -> tuple[str, str, str]:
+        return self._topics
+
+    def __post_init__(self) -> None:
+        self._topics = (self.topic_prefix + "/scan", self.topic_prefix + "/imu",
+                        self.topic_prefix + "/joint_states")
+
 
 @dataclass
 class _Person:
@@ -280,11 +288,11 @@ class Simulation:
         return np.array([(*p.body.position, 0.25) for p in self.people])
 
     def _walk(self) -> None:
+        robots = [(float(r.pose[0]), float(r.pose[1])) for r in self.robots]
         for p in self.people:
-            pos = np.array([p.body.position.x, p.body.position.y])
-            goal = p.route[p.target]
-            offset = goal - pos
-            dist = float(np.hypot(*offset))
+            px, py = p.body.position
+            gx, gy = p.route[p.target]
+            dist = math.hypot(gx - px, gy - py)
             if dist < 0.3:
                 if len(p.route) > 1:
                     nxt = p.target + p.direction
@@ -293,21 +301,22 @@ class Simulation:
                         nxt = p.target + p.direction
                     p.target = nxt
                 p.speed = float(self.rng.uniform(0.8, 1.4))
-                goal = p.route[p.target]
-                offset = goal - pos
-                dist = float(np.hypot(*offset))
-            v = offset / dist * p.speed if dist > 1e-9 else np.zeros(2)
+                gx, gy = p.route[p.target]
+                dist = math.hypot(gx - px, gy - py)
+            vx, vy = ((gx - px) / dist * p.speed, (gy - py) / dist * p.speed) if dist > 1e-9 \
+                else (0.0, 0.0)
             # people keep out of robots' way: a push away from any robot within 1.5 m,
             # stronger the closer it is (a "social force")
-            for r in self.robots:
-                away = pos - r.pose[:2]
-                gap = float(np.hypot(*away))
+            for rx, ry in robots:
+                ax, ay = px - rx, py - ry
+                gap = math.hypot(ax, ay)
                 if 1e-6 < gap < 1.5:
-                    v = v + away / gap * 1.5 * (1.5 - gap) / 1.5
-            speed = float(np.hypot(*v))
+                    push = (1.5 - gap) / gap
+                    vx, vy = vx + ax * push, vy + ay * push
+            speed = math.hypot(vx, vy)
             if speed > 1.5:
-                v = v * (1.5 / speed)
-            p.ground.velocity = (float(v[0]), float(v[1]))
+                vx, vy = vx * 1.5 / speed, vy * 1.5 / speed
+            p.ground.velocity = (vx, vy)
 
     def _set_command(self, r: _Robot, cmd: Command) -> None:
         d = r.description
@@ -378,16 +387,17 @@ class Simulation:
         index to any of these. Returns the sensor messages produced in this step as
         ``(topic, message)`` pairs, stamped with the sim clock.
         """
-        commands = cmd if isinstance(cmd, Mapping) else {0: cmd}
-        for index, c in commands.items():
-            self._set_command(self.robots[index], c)
+        if cmd is not None:
+            commands = cmd if isinstance(cmd, Mapping) else {0: cmd}
+            for index, c in commands.items():
+                self._set_command(self.robots[index], c)
         ph = self.physics
         t0 = self.time
         t1 = round((self.time + ph.dt) * 1e9) * 1e-9
         step_index = round(t1 / ph.dt)
         if self.people and step_index % 10 == 0:
             self._walk()  # people decide where to go ten times a second
-        before = [r.pose.copy() for r in self.robots]
+        before = [r.pose for r in self.robots]  # _read_state replaces, never mutates, pose
         for r in self.robots:
             self._drive(r, ph.dt)
         sub = ph.dt / ph.substeps
@@ -395,21 +405,21 @@ class Simulation:
             self.space.step(sub)
         self.time = t1
         out: list[tuple[str, Any]] = []
-        discs = self._discs()
+        discs = self._discs() if self.people else _NO_DISCS
         for i, r in enumerate(self.robots):
             self._read_state(r, ph.dt)
             if r.lidar is not None:
                 scan = r.lidar.collect(t0, t1, before[i], r.pose, discs,
                                        self.world.lidar_segments, self.world.circles)
                 if scan is not None:
-                    out.append((r.topic_prefix + "/scan", scan))
+                    out.append((r.topics[0], scan))
             if r.imu is not None and r.imu.due(t1):
-                out.append((r.topic_prefix + "/imu",
+                out.append((r.topics[1],
                             r.imu.measure(t1, float(r.pose[2]), float(r.velocity[1]),
                                           r.yaw_accel, r.accel)))
             if t1 + 1e-12 >= r.next_joint_state:
                 r.next_joint_state += 0.02
-                out.append((r.topic_prefix + "/joint_states", self.joint_state(i)))
+                out.append((r.topics[2], self.joint_state(i)))
         return out
 
     def run(self, seconds: float, cmd: Command | Mapping[int, Command] = None
