@@ -13,6 +13,8 @@ and after an exercise::
 passed; or "not implemented yet"; or the first failing case with what was expected, what came
 back and a hint. It never raises, so a student's notebook always runs top to bottom. While a
 submission is being graded (``KIT_GRADING=1``) it does nothing: grading runs the cases itself.
+Under nbgrader's autograder (``NBGRADER_EXECUTION=autograde``) a failing check raises, since
+that is how nbgrader scores a test cell.
 """
 
 from __future__ import annotations
@@ -110,6 +112,8 @@ class Checker:
         results = [run_case(ex, fn, case) for case in ex.public]
         if any(r.status == "not implemented" for r in results):
             print(f"… {ex.id}: not implemented yet")
+            if os.environ.get("NBGRADER_EXECUTION") == "autograde":
+                raise AssertionError(f"{ex.id}: not implemented")
             return
         failed = [r for r in results if not r.passed]
         label = f" ({fn.__name__} checked as {ex.function})" if fn.__name__ != ex.function else ""
@@ -118,8 +122,11 @@ class Checker:
                   f"({ex.points:g} points when graded, with hidden cases too)")
             return
         first = failed[0]
-        print(f"✗ {ex.id}{label}: {len(failed)} of {len(results)} public cases fail.\n"
-              f"  case '{first.case}': {first.message}")
+        verdict = (f"✗ {ex.id}{label}: {len(failed)} of {len(results)} public cases fail.\n"
+                   f"  case '{first.case}': {first.message}")
+        print(verdict)
+        if os.environ.get("NBGRADER_EXECUTION") == "autograde" and not label:
+            raise AssertionError(verdict)  # nbgrader scores a test cell by whether it raises
 
 
 def checker(lab: str | int) -> Checker:

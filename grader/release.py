@@ -2,14 +2,21 @@
 
 Code between ``### BEGIN SOLUTION`` and ``### END SOLUTION`` (the nbgrader/otter markers) is
 replaced, at the same indentation, by ``# YOUR CODE HERE`` and ``raise NotImplementedError()``
-— exactly what nbgrader's ``generate_assignment`` writes, so a course on nbgrader reads our
-labs as its own. Outputs and execution counts are cleared. Markdown between
-``<!-- BEGIN SOLUTION -->`` and ``<!-- END SOLUTION -->`` becomes ``YOUR ANSWER HERE``.
+— exactly what nbgrader's ``generate_assignment`` writes. Outputs and execution counts are
+cleared. Markdown between ``<!-- BEGIN SOLUTION -->`` and ``<!-- END SOLUTION -->`` becomes
+``YOUR ANSWER HERE``.
+
+Cells also get nbgrader's metadata (schema 3), so a course already on nbgrader can import the
+labs: an exercise cell is a solution cell (``grade_id`` = the exercise id), a ``check(fn)``
+cell is an autograded test cell with the exercise's points (under nbgrader's autograder,
+``check`` raises when a case fails, which is how nbgrader scores), every other cell is
+locked.
 """
 
 from __future__ import annotations
 
 import copy
+import re
 from pathlib import Path
 
 import nbformat
@@ -51,11 +58,44 @@ def strip_solutions(source: str, where: str = "cell") -> str:
     return _strip(source, BEGIN, END, ["# YOUR CODE HERE", "raise NotImplementedError()"], where)
 
 
-def release_notebook(nb: nbformat.NotebookNode, name: str = "notebook") -> nbformat.NotebookNode:
+CHECK_CELL = re.compile(r"^check\((\w+)(?:,\s*exercise=\"(\w+)\")?\)", re.MULTILINE)
+DEFINES = re.compile(r"^def (\w+)\(", re.MULTILINE)
+
+
+def nbgrader_metadata(cell: nbformat.NotebookNode, index: int,
+                      points: dict[str, float], lab: str) -> dict[str, object]:
+    """nbgrader's cell metadata for one solution-notebook cell."""
+    base: dict[str, object] = {"schema_version": 3, "grade": False, "solution": False,
+                               "locked": True, "grade_id": f"cell-{index:02d}"}
+    if cell.cell_type != "code":
+        return base
+    source = cell.source
+    if BEGIN in source:
+        defined = DEFINES.findall(source)
+        name = defined[0] if defined else f"cell-{index:02d}"
+        return {**base, "solution": True, "locked": False, "grade_id": f"{lab}.{name}"}
+    match = CHECK_CELL.search(source)
+    if match:
+        exercise = match.group(2) or match.group(1)
+        if exercise in points and match.group(2) is None:
+            return {**base, "grade": True, "points": points[exercise],
+                    "grade_id": f"{lab}.{exercise}-check"}
+    return base
+
+
+def release_notebook(nb: nbformat.NotebookNode, name: str = "notebook",
+                     lab: str | None = None) -> nbformat.NotebookNode:
     """The student version of one solution notebook (a new object)."""
     student = copy.deepcopy(nb)
+    points: dict[str, float] = {}
+    if lab is not None:
+        from grader.spec import load_lab
+
+        points = {ex.function: ex.points for ex in load_lab(lab).exercises}
     for index, cell in enumerate(student.cells):
         where = f"{name}, cell {index}"
+        if lab is not None:
+            cell.metadata["nbgrader"] = nbgrader_metadata(cell, index, points, lab)
         if cell.cell_type == "code":
             cell.source = strip_solutions(cell.source, where)
             cell.outputs = []
@@ -63,6 +103,13 @@ def release_notebook(nb: nbformat.NotebookNode, name: str = "notebook") -> nbfor
         elif cell.cell_type == "markdown":
             cell.source = _strip(cell.source, MD_BEGIN, MD_END, ["YOUR ANSWER HERE"], where)
     return student
+
+
+def _lab_of(path: Path) -> str | None:
+    from grader.spec import lab_names
+
+    name = f"lab{path.name[:2]}"
+    return name if name in lab_names() else None
 
 
 def _lab_notebooks(folder: Path) -> list[Path]:
@@ -79,7 +126,7 @@ def release(solutions: Path, labs: Path) -> list[Path]:
     for src in sources:
         nb = nbformat.read(src, as_version=4)
         out = labs / src.name
-        nbformat.write(release_notebook(nb, src.name), out)
+        nbformat.write(release_notebook(nb, src.name, _lab_of(src)), out)
         written.append(out)
     return written
 
@@ -93,7 +140,8 @@ def check_release(solutions: Path, labs: Path) -> list[str]:
         if not target.exists():
             problems.append(f"{target} is missing: run `grader release`")
             continue
-        fresh = nbformat.writes(release_notebook(nbformat.read(src, as_version=4), src.name))
+        fresh = nbformat.writes(release_notebook(nbformat.read(src, as_version=4), src.name,
+                                                 _lab_of(src)))
         if fresh != nbformat.writes(nbformat.read(target, as_version=4)):
             problems.append(f"{target} is out of date with {src}: run `grader release`")
     for extra in _lab_notebooks(labs):

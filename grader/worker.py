@@ -7,14 +7,15 @@ each exercise function on each case, and writes the encoded outputs as JSON to t
 channel. Nothing else leaves the process: the expected outputs never enter it, and the
 grader judges the outputs in its own process.
 
-The result channel is a private duplicate of the original standard output; file descriptor 1
-is pointed at /dev/null before any submitted code runs, so what a submission prints cannot
-pose as results.
+Results go to ``result.json`` in the scratch directory, which the grader reads with a size
+cap; what the submission prints goes to files the grader only skims (their size is capped by
+the file-size limit), so nothing printed can pose as a result.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
 import json
 import os
 import signal
@@ -50,10 +51,22 @@ def _blocked(qualified: str) -> Any:
 
 
 def block_references(names: list[str]) -> None:
+    """Replace the reference functions with ones that refuse, and refuse to reload their
+    modules (a reload would bring the originals back)."""
+    modules = set()
     for qualified in names:
         module_name, _, attr = qualified.partition(":")
         module = importlib.import_module(module_name)
         setattr(module, attr, _blocked(f"{module_name}.{attr}"))
+        modules.add(module)
+    original_reload = importlib.reload
+
+    def guarded_reload(module: Any) -> Any:
+        if module in modules:
+            raise PermissionError(f"{module.__name__} holds references blocked while grading")
+        return original_reload(module)
+
+    importlib.reload = guarded_reload
 
 
 def _on_alarm(signum: int, frame: FrameType | None) -> None:
@@ -70,9 +83,18 @@ def run_cells(cells: list[str], namespace: dict[str, Any]) -> list[dict[str, Any
             errors.append({"cell": index, "error": f"SystemExit({exc.code!r})"})
         except CaseTimeout:
             errors.append({"cell": index, "error": "cell ran past its time limit"})
+        except MemoryError:
+            errors.append({"cell": index, "error": "MemoryError: the cell ran out of memory"})
         except Exception as exc:
             errors.append({"cell": index, "error": _short(f"{type(exc).__name__}: {exc}")})
     return errors
+
+
+def signature_of(fn: Any) -> str:
+    try:
+        return str(inspect.signature(fn))
+    except (TypeError, ValueError):
+        return "(?)"
 
 
 def call_case(fn: Any, case: dict[str, Any], time_limit: float) -> dict[str, Any]:
@@ -85,6 +107,8 @@ def call_case(fn: Any, case: dict[str, Any], time_limit: float) -> dict[str, Any
         return {"status": "timeout", "message": f"did not return within {time_limit:g} s"}
     except NotImplementedError:
         return {"status": "not implemented", "message": "not implemented yet"}
+    except MemoryError:
+        return {"status": "memory", "message": "ran out of memory"}
     except SystemExit as exc:
         return {"status": "error", "message": f"called sys.exit({exc.code!r})"}
     except Exception as exc:
@@ -101,9 +125,7 @@ def call_case(fn: Any, case: dict[str, Any], time_limit: float) -> dict[str, Any
 
 def main() -> int:
     request = json.loads(sys.stdin.buffer.read())
-    result_fd = os.dup(1)
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
+    result = open("result.json", "wb")
     os.environ["KIT_GRADING"] = "1"
     signal.signal(signal.SIGALRM, _on_alarm)
     block_references(request["blocked"])
@@ -127,10 +149,12 @@ def main() -> int:
                 results.append({"status": "timeout", "message": "skipped after a timeout"})
             else:
                 results.append(call_case(fn, case, float(request["case_time_limit"])))
-        outcomes[exercise["id"]] = {"cases": results}
+        outcomes[exercise["id"]] = {"cases": results, "signature": signature_of(fn)}
     payload = json.dumps({"cell_errors": cell_errors, "outcomes": outcomes}).encode()
-    with os.fdopen(result_fd, "wb") as channel:
-        channel.write(payload)
+    result.seek(0)
+    result.truncate()
+    result.write(payload)
+    result.close()
     os._exit(0)  # skip whatever atexit handlers the submission registered
 
 
