@@ -33,3 +33,17 @@ def test_grader_check_release_and_grade(tmp_path, capsys):
     assert grader_cli.main(["grade", "labs/01-kinematics.ipynb", "--lab", "99",
                             "--out", str(tmp_path / "gb.csv")]) == 2
     assert "no such lab" in capsys.readouterr().err
+
+
+def test_grader_grade_then_feedback(tmp_path, capsys):
+    import shutil
+
+    shutil.copy("solutions/01-kinematics.ipynb", tmp_path / "ada.ipynb")
+    out = tmp_path / "gb.csv"
+    assert grader_cli.main(["grade", str(tmp_path / "ada.ipynb"), "--lab", "01", "--out",
+                            str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "sandbox:" in printed and "ada" in printed and "20 / 20" in printed
+    assert grader_cli.main(["feedback", str(tmp_path / "gb.json"), "--out",
+                            str(tmp_path / "fb")]) == 0
+    assert "20 / 20 points" in (tmp_path / "fb" / "ada.md").read_text()
