@@ -133,6 +133,8 @@ def compare(expected: Any, got: Any, rtol: float = 1e-6, atol: float = 1e-9,
         return None
     err = np.abs(np.where(np.isfinite(e_f), g_f - e_f, 0.0))
     message = f"{path}: expected {_fmt(e_arr)}, got {_fmt(g_arr)}"
+    if isinstance(got, (list, tuple)) and isinstance(expected, np.ndarray):
+        message += f" (a {type(got).__name__} was returned; a numpy array is expected)"
     if g_f.ndim:
         worst = tuple(int(v) for v in np.unravel_index(int(np.argmax(err)), err.shape))
         message += f" (largest error {float(err[worst]):.3g} at index {worst})"

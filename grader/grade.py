@@ -102,7 +102,8 @@ class SubmissionResult:
 
 
 def student_id(path: Path, lab: str) -> str:
-    """``alice.ipynb`` → alice; ``alice/01-kinematics.ipynb`` → alice."""
+    """``alice.ipynb`` → alice; ``alice/01-kinematics.ipynb`` → alice. (A notebook whose
+    metadata has ``{"kit": {"student": "..."}}`` is graded under that id instead.)"""
     stem = path.stem
     if stem[:2].isdigit() and stem[:2] == lab[-2:]:
         return path.parent.name or stem
@@ -202,7 +203,7 @@ def _score(ex: Exercise, cases: list[tuple[Case, bool]], outcome: dict[str, Any]
     return ExerciseResult(ex.id, points, ex.points, "error", "unknown outcome", results)
 
 
-def _read_cells(path: Path) -> tuple[list[str], str]:
+def _read_cells(path: Path) -> tuple[list[str], str, str | None]:
     try:
         raw = path.read_bytes()
         nb = nbformat.reads(raw.decode("utf-8"), as_version=4)
@@ -212,7 +213,10 @@ def _read_cells(path: Path) -> tuple[list[str], str]:
         raise
     except Exception as exc:  # nbformat raises several types for bad JSON and bad schema
         raise ValueError(f"{type(exc).__name__}: {str(exc)[:200]}") from None
-    return [c.source for c in nb.cells if c.cell_type == "code"], hashlib.sha256(raw).hexdigest()
+    named = nb.metadata.get("kit", {}).get("student") if isinstance(
+        nb.metadata.get("kit"), dict) else None
+    return ([c.source for c in nb.cells if c.cell_type == "code"],
+            hashlib.sha256(raw).hexdigest(), str(named) if named else None)
 
 
 def _tail(path: Path, limit: int = 4096) -> str:
@@ -230,7 +234,8 @@ def grade_notebook(path: Path, spec: LabSpec, student: str | None = None,
     """Grade one notebook; never raises for anything the submission does."""
     who = student or student_id(path, spec.name)
     try:
-        cells, digest = _read_cells(path)
+        cells, digest, named = _read_cells(path)
+        who = student or named or who
     except (OSError, ValueError) as exc:
         return SubmissionResult(who, str(path), "malformed notebook", str(exc),
                                 _not_graded(spec, "not graded", "malformed notebook"))

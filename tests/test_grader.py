@@ -344,3 +344,12 @@ def test_malformed_and_non_utf8_notebooks_get_a_row(tmp_path):
 def test_student_ids_come_from_file_or_folder_names():
     assert student_id(Path("class/alice.ipynb"), "lab01") == "alice"
     assert student_id(Path("class/bob/01-kinematics.ipynb"), "lab01") == "bob"
+
+
+def test_lists_get_a_specific_message_and_metadata_names_the_student(tmp_path):
+    assert "a list was returned" in compare(np.array([1.0, 2.0]), [1.0, 3.0])
+    path = notebook_with(tmp_path / "x.ipynb", "def turning_radius(v, w):\n    return 0.0")
+    nb = nbformat.read(path, as_version=4)
+    nb.metadata["kit"] = {"student": "grace"}
+    nbformat.write(nb, path)
+    assert grade_notebook(path, load_lab("lab01")).student == "grace"
