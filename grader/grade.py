@@ -261,7 +261,7 @@ def grade_notebook(path: Path, spec: LabSpec, student: str | None = None,
         (scratch / "result.json").write_bytes(b"")
         stdout_path, stderr_path = scratch / "stdout.txt", scratch / "stderr.txt"
         box = Sandbox.create(scratch, [path.parent, *hide], limits)
-        env["HOME"] = str(box.scratch)
+        env["HOME"] = env["TMPDIR"] = str(box.scratch)
         with open(stdout_path, "wb") as out, open(stderr_path, "wb") as err, \
                 open(scratch / "request.json", "rb") as request_in:
             box.prepare()

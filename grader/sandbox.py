@@ -98,8 +98,11 @@ class Sandbox:
     def command(self) -> list[str]:
         worker = [sys.executable, "-m", "grader.worker"]
         if self.layer == "bwrap":
+            # no tmpfs over /tmp: the kit itself may live there (a CI checkout); temporary
+            # files go to the scratch directory instead
             args = ["bwrap", "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc",
-                    "--tmpfs", "/tmp", "--bind", str(self.scratch), str(self.scratch)]
+                    "--bind", str(self.scratch), str(self.scratch),
+                    "--setenv", "TMPDIR", str(self.scratch)]
             for folder in self.hide:
                 args += ["--tmpfs", str(folder), "--remount-ro", str(folder)]
             args += ["--chdir", str(self.scratch), "--unshare-all", "--die-with-parent",
