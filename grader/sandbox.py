@@ -28,7 +28,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Limits", "Sandbox", "detect_layer"]
+__all__ = ["Limits", "Sandbox", "detect_layer", "layer_works"]
 
 NOBODY = 65534
 
@@ -41,26 +41,41 @@ class Limits:
     """largest file the submission may write, its captured output included."""
 
 
+PROBE = [sys.executable, "-c", "import grader.worker"]
+
+
+@functools.lru_cache(maxsize=None)
+def layer_works(layer: str) -> bool:
+    """Whether ``layer`` can start the worker's Python here (bubblewrap may be missing or
+    refused; the user ``nobody`` may be unable to read the kit's installation)."""
+    if layer == "rlimits":
+        return True
+    if layer == "bwrap":
+        if not shutil.which("bwrap"):
+            return False
+        command = ["bwrap", "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc",
+                   "--unshare-all", "--die-with-parent", *PROBE]
+    elif layer == "unshare":
+        if os.geteuid() != 0 or not (shutil.which("unshare") and shutil.which("setpriv")):
+            return False
+        command = ["unshare", "--pid", "--fork", "--net", "setpriv", "--reuid", str(NOBODY),
+                   "--regid", str(NOBODY), "--clear-groups", *PROBE]
+    else:
+        return False
+    try:
+        return subprocess.run(command, capture_output=True, timeout=60).returncode == 0
+    except (OSError, subprocess.SubprocessError):
+        return False
+
+
 @functools.lru_cache(maxsize=1)
 def detect_layer() -> str:
-    """``"bwrap"``, ``"unshare"`` or ``"rlimits"``: the first that works here."""
+    """``"bwrap"``, ``"unshare"`` or ``"rlimits"``: the strongest that works here
+    (``KIT_SANDBOX`` forces one)."""
     forced = os.environ.get("KIT_SANDBOX")
     if forced in ("bwrap", "unshare", "rlimits"):
         return forced
-    bwrap = shutil.which("bwrap")
-    if bwrap:
-        probe = subprocess.run([bwrap, "--ro-bind", "/", "/", "--dev", "/dev", "--proc",
-                                "/proc", "--unshare-all", "--die-with-parent", "true"],
-                               capture_output=True, timeout=30)
-        if probe.returncode == 0:
-            return "bwrap"
-    if os.geteuid() == 0 and shutil.which("unshare") and shutil.which("setpriv"):
-        probe = subprocess.run(["unshare", "--pid", "--fork", "--net", "setpriv", "--reuid",
-                                str(NOBODY), "--regid", str(NOBODY), "--clear-groups", "true"],
-                               capture_output=True, timeout=30)
-        if probe.returncode == 0:
-            return "unshare"
-    return "rlimits"
+    return next(layer for layer in ("bwrap", "unshare", "rlimits") if layer_works(layer))
 
 
 def _package_roots() -> list[Path]:
