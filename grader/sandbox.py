@@ -44,7 +44,7 @@ class Limits:
 PROBE = [sys.executable, "-c", "import grader.worker"]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def layer_works(layer: str) -> bool:
     """Whether ``layer`` can start the worker's Python here (bubblewrap may be missing or
     refused; the user ``nobody`` may be unable to read the kit's installation)."""
