@@ -32,9 +32,9 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "IGV_MOTOR",
+    "PID",
     "CascadeController",
     "DCMotor",
-    "PID",
     "PIDGains",
     "PIDState",
     "StepInfo",
@@ -250,7 +250,7 @@ def simulate_motor(motor: DCMotor, controller: Any, setpoint: ArrayLike, dt: flo
             k3 = motor.derivatives(state + 0.5 * h * k2, v)
             k4 = motor.derivatives(state + h * k3, v)
             state = state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return {"time": np.arange(len(r)) * dt, "speed": speed, "voltage": volts,
+    return {"time": np.arange(len(r), dtype=np.float64) * dt, "speed": speed, "voltage": volts,
             "current": amps}
 
 
