@@ -42,6 +42,7 @@ __all__ = [
     "pole_placement_pi",
     "simulate_motor",
     "step_info",
+    "transfer_coefficients",
     "with_limits",
     "ziegler_nichols",
 ]
@@ -75,16 +76,13 @@ class DCMotor:
         return control.ss(A, B, C, [[0.0]])
 
     def transfer_function(self) -> Any:
-        """python-control ``TransferFunction`` from voltage to wheel speed [rad/s per V]:
-
-        .. math:: \\frac{K_t / N}{(J s + b)(L s + R) + K_t K_e}
-        """
+        """python-control ``TransferFunction`` from voltage to wheel speed [rad/s per V]
+        (see :func:`transfer_coefficients`)."""
         import control
 
-        J, b, L, R = self.inertia, self.friction, self.inductance, self.resistance
-        num = [self.k_t / self.gear_ratio]
-        den = [J * L, J * R + b * L, b * R + self.k_t * self.k_e]
-        return control.tf(num, den)
+        return control.tf(*transfer_coefficients(
+            self.resistance, self.inductance, self.k_t, self.k_e, self.inertia, self.friction,
+            self.gear_ratio))
 
     def derivatives(self, state: FloatArray, voltage: float, load_torque: float = 0.0
                     ) -> FloatArray:
@@ -100,6 +98,19 @@ class DCMotor:
         """ω at the wheel with the full voltage and no load [rad/s]."""
         return float(self.voltage * self.k_t / (self.friction * self.resistance +
                                                 self.k_t * self.k_e) / self.gear_ratio)
+
+
+def transfer_coefficients(resistance: float, inductance: float, k_t: float, k_e: float,
+                          inertia: float, friction: float, gear_ratio: float
+                          ) -> tuple[FloatArray, FloatArray]:
+    """Numerator and denominator (highest power first) of voltage → wheel speed:
+
+    .. math:: \\frac{K_t / N}{(J s + b)(L s + R) + K_t K_e}
+              = \\frac{K_t / N}{J L s^2 + (J R + b L) s + (b R + K_t K_e)}
+    """
+    J, b, L, R = inertia, friction, inductance, resistance
+    return (np.array([k_t / gear_ratio]),
+            np.array([J * L, J * R + b * L, b * R + k_t * k_e]))
 
 
 IGV_MOTOR = DCMotor()

@@ -230,7 +230,8 @@ def mutate(src_notebook: Path, dest: Path, old: str, new: str) -> Path:
 
 def test_solutions_score_full_and_untouched_labs_score_zero(tmp_path):
     results = {}
-    for lab, name in (("lab01", "01-kinematics.ipynb"), ("lab02", "02-odometry.ipynb")):
+    for lab, name in (("lab01", "01-kinematics.ipynb"), ("lab02", "02-odometry.ipynb"),
+                      ("lab04", "04-motor-control.ipynb"), ("lab05", "05-fusion.ipynb")):
         spec = load_lab(lab)
         graded = grade_submissions([SOLUTIONS / name, LABS / name], spec, jobs=2)
         results[lab] = graded
@@ -290,6 +291,23 @@ BUGS = [
     ("lab02", "02-odometry.ipynb", "tick_delta",
      "return d - modulus if d >= modulus // 2 else d", "return current - previous",
      "wraps modulo"),
+    ("lab04", "04-motor-control.ipynb", "pi_step",
+     "    if output != raw and (raw - output) * error > 0:",
+     "    if False:", "no anti-windup"),
+    ("lab04", "04-motor-control.ipynb", "transfer_coefficients",
+     "return (np.array([k_t / gear_ratio]),", "return (np.array([k_t]),", "gearbox"),
+    ("lab04", "04-motor-control.ipynb", "pole_placement",
+     "kp = (2 * damping * natural_frequency * time_constant - 1) / gain",
+     "kp = (2 * damping * natural_frequency * time_constant) / gain", "own damping"),
+    ("lab05", "05-fusion.ipynb", "kf_predict",
+     "return F @ np.asarray(x, dtype=float), F @ np.asarray(P, dtype=float) @ F.T + Q",
+     "return F @ np.asarray(x, dtype=float), F.T @ np.asarray(P, dtype=float) @ F + Q",
+     "transposed"),
+    ("lab05", "05-fusion.ipynb", "angle_residual",
+     "return float(wrap_angle(z - z_hat))", "return float(z - z_hat)", "unwrapped"),
+    ("lab05", "05-fusion.ipynb", "planar_jacobian",
+     "    return np.array([[1, 0, -s * sn, dt * c, 0, 0.5 * dt * dt * c],",
+     "    return np.array([[1, 0, s * sn, dt * c, 0, 0.5 * dt * dt * c],", ""),
 ]
 
 

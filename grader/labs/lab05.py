@@ -1,0 +1,197 @@
+"""Lab 05 — sensor fusion (see/think): the exercises, their cases and their known mistakes."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from grader.spec import Case, Diagnostic, Exercise, LabSpec
+from kit import estimation as est
+
+_BLOCKED = tuple(f"kit.estimation:{name}" for name in (
+    "predict", "update", "residual", "nis", "nees", "EKF", "PlanarModel", "SensorConfig",
+    "FusionFilter"))
+
+
+def _spd(rng: np.random.Generator, n: int) -> Any:
+    a = rng.normal(0, 1, (n, n))
+    return a @ a.T + n * np.eye(n) * 0.1
+
+
+# ---------------------------------------------------------------- predict
+
+def _kf_predict(x: Any, P: Any, F: Any, Q: Any) -> Any:
+    Fa = np.asarray(F, float)
+    return est.predict(x, P, lambda s: Fa @ s, Fa, Q)
+
+
+def _kf_predict_transposed(x: Any, P: Any, F: Any, Q: Any) -> Any:
+    Fa = np.asarray(F, float)
+    return Fa @ np.asarray(x, float), Fa.T @ np.asarray(P, float) @ Fa + np.asarray(Q, float)
+
+
+def _predict_hidden(rng: np.random.Generator) -> list[Case]:
+    cases = []
+    for i in range(3):
+        n = int(rng.integers(2, 5))
+        cases.append(Case(f"random {n}-state", (rng.normal(0, 1, n), _spd(rng, n),
+                                                np.eye(n) + rng.normal(0, 0.2, (n, n)),
+                                                np.eye(n) * float(rng.uniform(0.01, 0.1)))))
+    return cases
+
+
+CV = np.array([[1.0, 0.1], [0.0, 1.0]])
+kf_predict = Exercise(
+    id="lab05.kf_predict", function="kf_predict", title="The prediction step",
+    reference=_kf_predict, points=2,
+    public=(Case("constant velocity", (np.array([0.0, 1.0]), np.eye(2), CV,
+                                       np.diag([1e-4, 1e-2]))),
+            Case("correlated", (np.array([1.0, -0.5]), np.array([[2.0, 0.3], [0.3, 0.5]]), CV,
+                                np.diag([0.01, 0.01])))),
+    hidden=_predict_hidden, rtol=1e-9, atol=1e-12,
+    diagnostics=(Diagnostic("a transposed Jacobian", _kf_predict_transposed,
+                            "P⁻ = F P Fᵀ + Q, with F on the left"),),
+    blocked=_BLOCKED,
+)
+
+
+# ---------------------------------------------------------------- update
+
+def _joseph(x: Any, P: Any, z: Any, H: Any, R: Any) -> Any:
+    Ha = np.atleast_2d(np.asarray(H, float))
+    x_new, P_new, _, _ = est.update(x, P, z, lambda s: Ha @ s, Ha, R)
+    return x_new, P_new
+
+
+def _update_no_s(x: Any, P: Any, z: Any, H: Any, R: Any) -> Any:
+    Ha = np.atleast_2d(np.asarray(H, float))
+    Pa = np.asarray(P, float)
+    K = Pa @ Ha.T @ np.linalg.inv(np.atleast_2d(np.asarray(R, float)))
+    x_new = np.asarray(x, float) + K @ (np.asarray(z, float) - Ha @ np.asarray(x, float))
+    I_KH = np.eye(len(x_new)) - K @ Ha
+    return x_new, I_KH @ Pa @ I_KH.T + K @ np.atleast_2d(R) @ K.T
+
+
+def _update_hidden(rng: np.random.Generator) -> list[Case]:
+    cases = []
+    for i in range(3):
+        n, m = 3, int(rng.integers(1, 3))
+        cases.append(Case(f"random {i}", (rng.normal(0, 1, n), _spd(rng, n), rng.normal(0, 1, m),
+                                          rng.normal(0, 1, (m, n)), _spd(rng, m))))
+    return cases
+
+
+joseph_update = Exercise(
+    id="lab05.joseph_update", function="joseph_update", title="The update step, Joseph form",
+    reference=_joseph, points=3,
+    public=(Case("position measured", (np.array([0.0, 1.0]), np.eye(2), np.array([0.3]),
+                                       np.array([[1.0, 0.0]]), np.array([[0.25]]))),
+            Case("both measured", (np.array([1.0, 0.0]), np.diag([2.0, 1.0]),
+                                   np.array([1.5, 0.2]), np.eye(2), np.diag([0.5, 0.1])))),
+    hidden=_update_hidden, rtol=1e-9, atol=1e-12,
+    diagnostics=(Diagnostic("a gain without S", _update_no_s,
+                            "K = P Hᵀ S⁻¹ with S = H P Hᵀ + R, not R alone"),),
+    blocked=_BLOCKED,
+)
+
+
+# ---------------------------------------------------------------- angles and NIS
+
+def _angle_residual(z: float, z_hat: float) -> float:
+    return float(est.residual([z], [z_hat], [0])[0])
+
+
+def _angle_plain(z: float, z_hat: float) -> float:
+    return z - z_hat
+
+
+angle_residual = Exercise(
+    id="lab05.angle_residual", function="angle_residual", title="Angle-aware residuals",
+    reference=_angle_residual, points=2,
+    public=(Case("small", (0.3, 0.1)), Case("across ±π", (3.1, -3.1)),
+            Case("the other way", (-3.1, 3.1)), Case("several turns", (7.0, 0.0))),
+    hidden=lambda rng: [Case(f"random {i}", (float(rng.uniform(-10, 10)),
+                                              float(rng.uniform(-4, 4)))) for i in range(5)],
+    diagnostics=(Diagnostic("an unwrapped difference", _angle_plain,
+                            "wrap the difference to [-π, π)"),),
+    blocked=_BLOCKED,
+)
+
+
+def _nis_hidden(rng: np.random.Generator) -> list[Case]:
+    return [Case(f"random {i}", (rng.normal(0, 1, n), _spd(rng, n)))
+            for i, n in enumerate(rng.integers(1, 4, 3))]
+
+
+nis_exercise = Exercise(
+    id="lab05.nis", function="nis", title="Normalised innovation squared",
+    reference=est.nis, points=2,
+    public=(Case("scalar", (np.array([0.5]), np.array([[0.25]]))),
+            Case("two measurements", (np.array([1.0, -1.0]), np.array([[2.0, 0.5],
+                                                                       [0.5, 1.0]])))),
+    hidden=_nis_hidden, rtol=1e-9,
+    diagnostics=(Diagnostic("yᵀ S y", lambda y, S: float(np.asarray(y) @ np.asarray(S) @
+                                                           np.asarray(y)),
+                            "the innovation is weighed by the inverse of S"),),
+    blocked=_BLOCKED,
+)
+
+
+# ---------------------------------------------------------------- the planar model
+
+def _jacobian(x: Any, dt: float) -> Any:
+    return est.PlanarModel().F_x(np.asarray(x, float), dt)
+
+
+def _jacobian_t(x: Any, dt: float) -> Any:
+    return _jacobian(x, dt).T
+
+
+planar_jacobian = Exercise(
+    id="lab05.planar_jacobian", function="planar_jacobian", title="The motion model's Jacobian",
+    reference=_jacobian, points=3,
+    public=(Case("standing still", (np.zeros(6), 0.1)),
+            Case("driving and turning", (np.array([1.0, 2.0, 0.5, 0.4, 0.3, 0.1]), 0.05))),
+    hidden=lambda rng: [Case(f"random {i}", (rng.normal(0, 1, 6), float(rng.uniform(0.01, 0.2))))
+                        for i in range(3)],
+    rtol=1e-9, atol=1e-12,
+    diagnostics=(Diagnostic("a transposed Jacobian", _jacobian_t,
+                            "row i holds the derivatives of state i"),),
+    blocked=_BLOCKED,
+)
+
+
+# ---------------------------------------------------------------- robot_localization configs
+
+def _indices(config: Any) -> list[int]:
+    fused = est.SensorConfig(tuple(bool(b) for b in config)).fused()
+    return [est.STATE.index(f) for f in fused]
+
+
+def _indices_raw(config: Any) -> list[int]:
+    return [i for i, on in enumerate(config) if on]
+
+
+T, F = True, False
+fused_state_indices = Exercise(
+    id="lab05.fused_state_indices", function="fused_state_indices",
+    title="robot_localization's configuration vectors", reference=_indices, points=2,
+    public=(Case("the Uiabot's odom0_config", ((T, T, T, F, F, F, F, F, F, F, F, T, F, F, F),)),
+            Case("the Uiabot's imu0_config", ((F, F, F, T, T, T, F, F, F, F, F, F, F, F, F),)),
+            Case("velocities and acceleration", ((F,) * 6 + (T, T, F, F, F, T, T, F, F),))),
+    hidden=lambda rng: [Case(f"random {i}", (tuple(bool(b) for b in rng.random(15) < 0.4),))
+                        for i in range(4)],
+    diagnostics=(Diagnostic("the config's own indices", _indices_raw,
+                            "map config fields (x y z roll pitch yaw vx vy vz vroll vpitch vyaw "
+                            "ax ay az) onto the state [x, y, yaw, vx, vyaw, ax]"),),
+    blocked=_BLOCKED,
+)
+
+
+SPEC = LabSpec(
+    name="lab05",
+    title="Lab 05 — Sensor fusion",
+    exercises=(kf_predict, joseph_update, angle_residual, nis_exercise, planar_jacobian,
+               fused_state_indices),
+)
