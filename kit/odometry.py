@@ -312,6 +312,7 @@ class WheelOdometry:
         self.pose = np.zeros(3)
         self.covariance = np.zeros((3, 3))
         self.velocity = np.zeros(2)
+        self.twist_covariance = np.diag([1e-9, UNUSED_VARIANCE, 1e-9])
         self._last: tuple[int, int, float] | None = None
 
     @classmethod
@@ -341,12 +342,16 @@ class WheelOdometry:
             self.pose = odometry_step(self.pose, d_r, d_l, self.wheel_separation, self.method)
             self.velocity = np.array([0.5 * (d_r + d_l) / dt,
                                       (d_r - d_l) / self.wheel_separation / dt])
+            # the same wheel-error model for the velocities of this interval
+            travel_var = self.k[0] * abs(d_r) + self.k[1] * abs(d_l)
+            self.twist_covariance = np.diag([travel_var / (4 * dt * dt), UNUSED_VARIANCE,
+                                             travel_var / (self.wheel_separation * dt) ** 2])
         self._last = (int(ticks_right), int(ticks_left), float(time))
         return self.message(time)
 
     def message(self, time: float) -> msgs.Odometry:
         return odometry_message(self.pose, self.velocity, msgs.Time.from_sec(time),
-                                self.covariance)
+                                self.covariance, self.twist_covariance)
 
     def transform(self, time: float) -> msgs.TransformStamped:
         return odom_transform(self.pose, msgs.Time.from_sec(time))

@@ -58,6 +58,18 @@ class Physics:
     """fraction of the robot's weight the driven wheels carry (the rest on casters)."""
     motor_acceleration: float = 6.0
     """m/s² at the wheel rim: how fast a servo spins its wheel up."""
+    slip_variance: float = 0.0
+    """m²/m: random micro-slip of each wheel — the wheel turns a little more or less than it
+    rolls — with a variance that grows with the distance rolled (Siegwart's wheel-error
+    model, the one ``kit.odometry`` propagates). Zero (the default) keeps the floor
+    deterministic; the robot's own ``odometry_k`` makes the encoders err exactly as its
+    odometry covariance says."""
+    wheel_motor: Any = None
+    """a ``kit.control.DCMotor``: when given (with ``Simulation(wheel_controllers=...)``),
+    each wheel is that gear-motor driven by its controller's voltage instead of an ideal
+    servo. The motor's inductance is neglected (its 0.7 ms time constant is far below the
+    10 ms step), its current is limited to ``peak_current``, and the ground's reaction is not
+    fed back into the motor (the traction joints carry it)."""
     wheel_radius_errors: tuple[float, float] = (0.0, 0.0)
     """(right, left) fractions by which the wheels' true rolling radii differ from the
     nominal one the encoders are converted with (worn or unevenly loaded tyres: the
@@ -108,6 +120,7 @@ class _Robot:
     accel: tuple[float, float] = (0.0, 0.0)
     yaw_accel: float = 0.0
     next_joint_state: float = 0.02  # 50 Hz, on the multiples of 20 ms
+    controllers: list[Any] = field(default_factory=list)
 
     @property
     def topics(self) -> tuple[str, str, str]:
@@ -146,6 +159,10 @@ class Simulation:
         Start poses; defaults to the world's spawn (robots after the first 1 m apart).
     lidar_rate, lidar_beams : optional
         Override the lidar's scan rate [Hz] and beams per scan (e.g. 10 Hz, 360 beams).
+    wheel_controllers : callable, optional
+        With ``physics.wheel_motor``: a factory called once per wheel, returning
+        ``controller(setpoint [rad/s], wheel speed [rad/s]) -> voltage`` — a speed loop such as
+        Lab 04's PI — run every physics step.
     sensors : bool
         False turns the lidar and IMU off (physics and encoders only).
     """
@@ -154,7 +171,8 @@ class Simulation:
                  robot: str | RobotDescription | Sequence[str | RobotDescription] = "uiabot",
                  seed: int = 0, people: int = 0, start: Any = None,
                  physics: Physics | None = None, lidar_rate: float | None = None,
-                 lidar_beams: int | None = None, sensors: bool = True) -> None:
+                 lidar_beams: int | None = None, sensors: bool = True,
+                 wheel_controllers: Any = None) -> None:
         self.world = world if isinstance(world, World) else load_world(world)
         robots = [robot] if isinstance(robot, (str, RobotDescription)) else list(robot)
         self.descriptions = [r if isinstance(r, RobotDescription) else load_robot(r)
@@ -166,6 +184,9 @@ class Simulation:
         self._start = start
         self._lidar_rate, self._lidar_beams = lidar_rate, lidar_beams
         self._sensors = sensors
+        if (wheel_controllers is None) != (self.physics.wheel_motor is None):
+            raise ValueError("wheel_controllers and physics.wheel_motor go together")
+        self._controller_factory = wheel_controllers
         self.reset(seed)
 
     # ------------------------------------------------------------------ building
@@ -250,8 +271,11 @@ class Simulation:
             imu = Imu(d.sensors["imu"], mount2, np.random.default_rng(self.rng.integers(2**63)))
         prefix = "" if len(self.descriptions) == 1 else f"/robot{index}"
         offset = self.rng.integers(0, 1 << min(d.counter_bits, 62), 2, dtype=np.int64)
-        return _Robot(d, body, grounds, joints, d.half_track, traction, lidar, imu, prefix,
-                      offset)
+        robot = _Robot(d, body, grounds, joints, d.half_track, traction, lidar, imu, prefix,
+                       offset)
+        if self._controller_factory is not None:
+            robot.controllers = [self._controller_factory(), self._controller_factory()]
+        return robot
 
     def _add_person(self, index: int) -> _Person:
         route = self.world.routes[index % len(self.world.routes)]
@@ -345,18 +369,40 @@ class Simulation:
         speeds = r.wheel_speed
         # the ground bodies' positions do not matter: anchored at their centres and never
         # rotating, they only lend the joints their velocity
+        motor = ph.wheel_motor
         for k in (0, 1):
-            change = float(r.wheel_target[k]) - float(speeds[k])
-            speed = float(speeds[k]) + (limit if change > limit else
-                                        -limit if change < -limit else change)
+            if motor is not None:
+                speed = self._motor_step(motor, r.controllers[k], float(r.wheel_target[k]),
+                                         float(speeds[k]), dt)
+            else:
+                change = float(r.wheel_target[k]) - float(speeds[k])
+                speed = float(speeds[k]) + (limit if change > limit else
+                                            -limit if change < -limit else change)
             speeds[k] = speed
             r.wheel_angle[k] += speed * dt
             rim = speed * d.wheel_radius * (1.0 + ph.wheel_radius_errors[k])
+            if ph.slip_variance:
+                # the wheel turns a little more or less than it rolls over the floor: an
+                # error of variance k |Δs| in what the encoder counts over this step
+                slip = math.sqrt(ph.slip_variance * abs(rim) * dt) * \
+                    float(self.rng.standard_normal())
+                r.wheel_angle[k] += slip / d.wheel_radius
             r.grounds[k].velocity = (rim * c, rim * s)
             if oily:
                 y = -r.half_track if k == 0 else r.half_track
                 slippery = self.world.in_oil(px - s * y, py + c * y)
                 r.joints[k].max_force = oil_force if slippery else r.traction
+
+    @staticmethod
+    def _motor_step(motor: Any, controller: Any, target: float, speed: float,
+                    dt: float) -> float:
+        """One step of a wheel driven by a DC gear-motor under its speed controller."""
+        volts = min(max(float(controller(target, speed)), -motor.voltage), motor.voltage)
+        omega = speed * motor.gear_ratio
+        current = (volts - motor.k_e * omega) / motor.resistance
+        current = min(max(current, -motor.peak_current), motor.peak_current)
+        omega += (motor.k_t * current - motor.friction * omega) / motor.inertia * dt
+        return omega / motor.gear_ratio
 
     def _read_state(self, r: _Robot, dt: float | None = None) -> None:
         b = r.body

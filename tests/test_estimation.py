@@ -178,3 +178,58 @@ def test_outputs_at_the_configured_frequency():
     assert len(published) == 20
     with pytest.raises(ValueError, match="time order"):
         fusion.add_odometry("o", odom_message(0.5, [0, 0, 0]))
+
+
+def test_fusion_is_consistent_over_50_seeded_simulator_runs():
+    """Monte-Carlo consistency (Bar-Shalom): the wheels slip at random exactly as the
+    odometry covariance says (Physics.slip_variance = the Uiabot's odometry_k), the odometry's
+    velocities and the BNO055's yaw are fused (fusing odometry's integrated pose as if its
+    errors were white would make any filter overconfident), and over 50 runs the average
+    NEES of (x, y, yaw) at the end and the average NIS of each sensor's last update lie in
+    their 95 % χ² bounds."""
+    from scipy import stats
+
+    from sim import Physics
+
+    def twist(v, w):
+        return msgs.Twist(msgs.Vector3(v, 0, 0), msgs.Vector3(0, 0, w))
+
+    odom_velocities = SensorConfig((F, F, F, F, F, F, T, F, F, F, F, T, F, F, F))
+    imu_yaw = SensorConfig((F, F, F, F, F, T, F, F, F, F, F, F, F, F, F))
+    runs = 50
+    nees_end, nis_imu, nis_odom = [], [], []
+    for seed in range(runs):
+        robot_k = 1e-4  # hardware/robots/uiabot.toml [odometry]
+        sim = Simulation(world="square", robot="uiabot", seed=seed, start=[2.0, 5.0, 0.0],
+                         physics=Physics(slip_variance=robot_k))
+        node = odometry.WheelOdometry.for_robot(sim.robots[0].description)
+        assert node.k == (robot_k, robot_k)
+        node.pose = sim.ground_truth().pose.copy()
+        node.update(*sim.encoder_ticks(), 0.0)
+        fusion = FusionFilter({"odom0": odom_velocities, "imu0": imu_yaw})
+        fusion.x[:3] = node.pose
+        for seconds, cmd in ((2.0, twist(0.4, 0.3)), (2.0, twist(0.3, -0.4)),
+                             (2.0, twist(0.4, 0.2))):
+            for k in range(round(seconds / 0.01)):
+                for topic, message in sim.step(cmd if k == 0 else None):
+                    if topic == "/joint_states":
+                        fusion.add_odometry("odom0", node.update(*sim.encoder_ticks(),
+                                                                 sim.time))
+                    elif topic == "/imu":
+                        fusion.add_imu("imu0", message)
+        from kit.estimation import nees
+
+        nees_end.append(nees(sim.ground_truth().pose, fusion.x[:3], fusion.P[:3, :3], [2]))
+        last = {name: value for name, value, _ in fusion.nis_log}
+        nis_imu.append(last["imu0"])
+        nis_odom.append(last["odom0"])
+
+    def band(dof):
+        return stats.chi2.ppf([0.025, 0.975], dof * runs) / runs
+
+    low, high = band(3)
+    assert low < np.mean(nees_end) < high
+    low, high = band(1)
+    assert low < np.mean(nis_imu) < high
+    low, high = band(2)
+    assert low < np.mean(nis_odom) < high

@@ -374,3 +374,30 @@ def test_teleop_panel_buttons_drive_the_robot():
     assert sim.ground_truth().pose[0] > 5.05
     buttons["◀ left"].click()
     assert sim.ground_truth().pose[2] > 0.1
+
+
+def test_wheel_servos_can_run_a_motor_and_lab_04s_controller():
+    """The IGV's wheels as its DC gear-motors, each under a PI speed loop (pole placement on
+    the motor model): the robot reaches the commanded speed; a P-only loop falls short."""
+    import control
+
+    from kit.control import IGV_MOTOR, PID, PIDGains, pole_placement_pi
+    from sim import Physics
+
+    G = IGV_MOTOR.transfer_function()
+    K, tau = float(control.dcgain(G)), 1.0 / abs(max(control.poles(G).real))
+    pi = pole_placement_pi(K, tau, 10.0, 0.9)
+    for gains, reaches in ((PIDGains(kp=pi.kp, ki=pi.ki, dt=0.01,
+                                     output_limits=(-24.0, 24.0)), True),
+                           (PIDGains(kp=pi.kp, dt=0.01, output_limits=(-24.0, 24.0)), False)):
+        sim = Simulation(world="square", robot="igv", seed=1, start=[1.0, 5.0, 0.0],
+                         sensors=False, physics=Physics(wheel_motor=IGV_MOTOR),
+                         wheel_controllers=lambda g=gains: PID(g))
+        sim.run(2.0, twist(0.8))
+        v = sim.ground_truth().velocity[0]
+        if reaches:
+            assert v == pytest.approx(0.8, rel=0.02)
+        else:
+            assert v < 0.8 * 0.97
+    with pytest.raises(ValueError, match="go together"):
+        Simulation(world="square", robot="igv", wheel_controllers=lambda: PID(gains))
