@@ -112,10 +112,10 @@ class DiffDriveModel:
 
     def encoder_ticks(self) -> tuple[int, int]:
         """Raw (right, left) counter readings: wheel rotation in ticks, wrapped to the counter."""
-        per_rad = self.robot.ticks_per_wheel_turn / (2 * math.pi)
-        counts = np.floor(self._wheel_angle * per_rad).astype(np.int64) + self._tick_offset
-        wrapped = counts % (1 << self.robot.counter_bits)
-        return int(wrapped[0]), int(wrapped[1])
+        from sim.sensors import encoder_counts
+
+        return encoder_counts(self._wheel_angle, self.robot.ticks_per_wheel_turn,
+                              self._tick_offset, self.robot.counter_bits)
 
 
 def drive_square(model: Any, side: float = 2.0, speed: float | None = None,

@@ -134,30 +134,39 @@ def test_relative_and_differential_modes():
     assert 1.5 < np.hypot(diff.x[0], diff.x[1]) < 0.5 * 3.98 + 0.01
 
 
+def twist(v: float, w: float) -> msgs.Twist:
+    return msgs.Twist(msgs.Vector3(v, 0, 0), msgs.Vector3(0, 0, w))
+
+
+def drive_and_fuse(sim: Simulation, sensors: dict[str, SensorConfig],
+                   plan: list[tuple[float, msgs.Twist]]
+                   ) -> tuple[odometry.WheelOdometry, FusionFilter]:
+    """Drive ``plan`` (seconds, command); the odometry node runs on the encoders with the
+    joint states, the fusion filter takes its Odometry as "odom0" and the IMU as "imu0"."""
+    node = odometry.WheelOdometry.for_robot(sim.robots[0].description)
+    node.pose = sim.ground_truth().pose.copy()
+    node.update(*sim.encoder_ticks(), 0.0)
+    fusion = FusionFilter(sensors, frequency=30.0)
+    fusion.x[:3] = node.pose
+    for seconds, cmd in plan:
+        for k in range(round(seconds / 0.01)):
+            for topic, message in sim.step(cmd if k == 0 else None):
+                if topic == "/joint_states":
+                    fusion.add_odometry("odom0", node.update(*sim.encoder_ticks(), sim.time))
+                elif topic == "/imu":
+                    fusion.add_imu("imu0", message)
+    return node, fusion
+
+
 def test_fusion_keeps_the_heading_when_a_wheel_slips_on_oil():
     """The Uiabot drives onto the oil, turns there and drives on: the wheels spin, so wheel
     odometry's heading is off by about 30°; fused with the BNO055's yaw it is not."""
-    def twist(v, w):
-        return msgs.Twist(msgs.Vector3(v, 0, 0), msgs.Vector3(0, 0, w))
-
     ratios = []
+    plan = [(1.5, twist(0.4, 0)), (1.5, twist(0.0, 2.0)), (1.0, twist(0.0, -2.0)),
+            (3.0, twist(0.4, 0.0)), (2.0, twist(0.3, 0.5))]
     for seed in range(3):
         sim = Simulation(world="square", robot="uiabot", seed=seed, start=[3.6, 2.0, 0.0])
-        node = odometry.WheelOdometry.for_robot(sim.robots[0].description)
-        node.pose = sim.ground_truth().pose.copy()
-        node.update(*sim.encoder_ticks(), 0.0)
-        fusion = FusionFilter({"odom0": ODOM0, "imu0": IMU0}, frequency=30.0)
-        fusion.x[:3] = node.pose
-        plan = [(1.5, twist(0.4, 0)), (1.5, twist(0.0, 2.0)), (1.0, twist(0.0, -2.0)),
-                (3.0, twist(0.4, 0.0)), (2.0, twist(0.3, 0.5))]
-        for seconds, cmd in plan:
-            for k in range(round(seconds / 0.01)):
-                for topic, message in sim.step(cmd if k == 0 else None):
-                    if topic == "/joint_states":
-                        fusion.add_odometry("odom0", node.update(*sim.encoder_ticks(),
-                                                                 sim.time))
-                    elif topic == "/imu":
-                        fusion.add_imu("imu0", message)
+        node, fusion = drive_and_fuse(sim, {"odom0": ODOM0, "imu0": IMU0}, plan)
         truth = sim.ground_truth().pose[2]
         wheel_error = abs(math.remainder(node.pose[2] - truth, 2 * math.pi))
         fused_error = abs(math.remainder(fusion.x[2] - truth, 2 * math.pi))
@@ -189,10 +198,8 @@ def test_fusion_is_consistent_over_50_seeded_simulator_runs():
     their 95 % χ² bounds."""
     from scipy import stats
 
+    from kit.estimation import nees
     from sim import Physics
-
-    def twist(v, w):
-        return msgs.Twist(msgs.Vector3(v, 0, 0), msgs.Vector3(0, 0, w))
 
     odom_velocities = SensorConfig((F, F, F, F, F, F, T, F, F, F, F, T, F, F, F))
     imu_yaw = SensorConfig((F, F, F, F, F, T, F, F, F, F, F, F, F, F, F))
@@ -202,23 +209,10 @@ def test_fusion_is_consistent_over_50_seeded_simulator_runs():
         robot_k = 1e-4  # hardware/robots/uiabot.toml [odometry]
         sim = Simulation(world="square", robot="uiabot", seed=seed, start=[2.0, 5.0, 0.0],
                          physics=Physics(slip_variance=robot_k))
-        node = odometry.WheelOdometry.for_robot(sim.robots[0].description)
+        node, fusion = drive_and_fuse(
+            sim, {"odom0": odom_velocities, "imu0": imu_yaw},
+            [(2.0, twist(0.4, 0.3)), (2.0, twist(0.3, -0.4)), (2.0, twist(0.4, 0.2))])
         assert node.k == (robot_k, robot_k)
-        node.pose = sim.ground_truth().pose.copy()
-        node.update(*sim.encoder_ticks(), 0.0)
-        fusion = FusionFilter({"odom0": odom_velocities, "imu0": imu_yaw})
-        fusion.x[:3] = node.pose
-        for seconds, cmd in ((2.0, twist(0.4, 0.3)), (2.0, twist(0.3, -0.4)),
-                             (2.0, twist(0.4, 0.2))):
-            for k in range(round(seconds / 0.01)):
-                for topic, message in sim.step(cmd if k == 0 else None):
-                    if topic == "/joint_states":
-                        fusion.add_odometry("odom0", node.update(*sim.encoder_ticks(),
-                                                                 sim.time))
-                    elif topic == "/imu":
-                        fusion.add_imu("imu0", message)
-        from kit.estimation import nees
-
         nees_end.append(nees(sim.ground_truth().pose, fusion.x[:3], fusion.P[:3, :3], [2]))
         last = {name: value for name, value, _ in fusion.nis_log}
         nis_imu.append(last["imu0"])
