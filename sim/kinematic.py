@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from kit import geometry, kinematics
 from kit.robots import RobotDescription
+from sim.sensors import encoder_counts
 
 __all__ = ["DiffDriveModel", "WheelErrors", "drive_square"]
 
@@ -112,8 +113,6 @@ class DiffDriveModel:
 
     def encoder_ticks(self) -> tuple[int, int]:
         """Raw (right, left) counter readings: wheel rotation in ticks, wrapped to the counter."""
-        from sim.sensors import encoder_counts
-
         return encoder_counts(self._wheel_angle, self.robot.ticks_per_wheel_turn,
                               self._tick_offset, self.robot.counter_bits)
 
