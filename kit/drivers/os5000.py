@@ -1,0 +1,146 @@
+"""OceanServer OS5000-S digital compass: its ``$C`` sentences, checked and parsed, and the
+heading converted once, here, to REP-103 yaw.
+
+The compass streams ``$C<heading>P<pitch>R<roll>T<temp>…*<cc>\\r\\n`` (checksum: XOR of the
+characters between ``$`` and ``*``) and answers commands with free text, which is skipped.
+Heading is degrees clockwise from north; REP-103 yaw is counter-clockwise from east:
+``yaw = π/2 − heading`` (wrapped to [−π, π)). Facts and vectors: ``protocols.md`` §2.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from kit.drivers.checksums import nmea_checksum
+from kit.drivers.errors import ChecksumError, DeviceTimeout, ProtocolError
+from kit.geometry import wrap_angle
+
+__all__ = ["DEVICE", "CompassReading", "LineSplitter", "Os5000", "heading_to_yaw",
+           "parse_sentence"]
+
+DEVICE = "OS5000"
+TOKEN = re.compile(r"(Mx|My|Mz|Ax|Ay|Az|[CPRTD])(-?\d+(?:\.\d+)?)")
+SENTENCE = re.compile(r"^\$([^*$]*)\*([0-9A-Fa-f]{2})$")
+
+
+def heading_to_yaw(heading_deg: float) -> float:
+    """Compass heading (clockwise from north, degrees) → REP-103 yaw (CCW from east, rad).
+
+    >>> round(heading_to_yaw(90.0), 12), round(heading_to_yaw(0.0), 6)
+    (0.0, 1.570796)
+    """
+    return float(wrap_angle(math.pi / 2 - math.radians(heading_deg)))
+
+
+@dataclass(frozen=True)
+class CompassReading:
+    heading_deg: float
+    pitch_deg: float
+    roll_deg: float
+    temperature_c: float | None
+    yaw: float
+    """REP-103 yaw [rad] of the heading."""
+    extra: dict[str, float] = field(default_factory=dict)
+    """any other fields present (Mx, My, Mz, Ax, Ay, Az, D)."""
+
+
+def parse_sentence(line: str) -> CompassReading:
+    """One ``$C…*cc`` line (without CR LF) → a reading.
+
+    Raises
+    ------
+    ChecksumError
+        The two hex digits do not match the line.
+    ProtocolError
+        Not a ``$C`` sentence, or heading/pitch/roll missing.
+    """
+    match = SENTENCE.match(line.strip())
+    if not match:
+        raise ProtocolError(DEVICE, f"not a sentence: {line[:60]!r}")
+    body, given = match.group(1), match.group(2).upper()
+    if nmea_checksum(body) != given:
+        raise ChecksumError(DEVICE, f"checksum {given} does not match "
+                                    f"{nmea_checksum(body)} for {body[:60]!r}")
+    if not body.startswith("C"):
+        raise ProtocolError(DEVICE, f"not a $C sentence (format 1): {body[:20]!r}")
+    values: dict[str, float] = {}
+    for tag, number in TOKEN.findall(body):
+        values[tag] = float(number)
+    for needed in ("C", "P", "R"):
+        if needed not in values:
+            raise ProtocolError(DEVICE, f"sentence without {needed}: {body[:60]!r}")
+    heading = values.pop("C")
+    pitch, roll = values.pop("P"), values.pop("R")
+    if not (0.0 <= heading <= 360.0 and -90.0 <= pitch <= 90.0 and -180.0 <= roll <= 180.0):
+        raise ProtocolError(DEVICE, f"angles out of range: {body[:60]!r}")
+    return CompassReading(heading, pitch, roll, values.pop("T", None), heading_to_yaw(heading),
+                          values)
+
+
+class LineSplitter:
+    """Bytes → complete lines (CR/LF separated); a line without an end is kept for later,
+    and a runaway line longer than ``limit`` is dropped rather than grown forever."""
+
+    def __init__(self, limit: int = 512) -> None:
+        self._buffer = b""
+        self.limit = limit
+        self.dropped = 0
+
+    def feed(self, data: bytes) -> list[str]:
+        self._buffer += data
+        *lines, self._buffer = re.split(rb"[\r\n]+", self._buffer)
+        if len(self._buffer) > self.limit:
+            self.dropped += len(self._buffer)
+            self._buffer = b""
+        out = []
+        for raw in lines:
+            start = raw.rfind(b"$")
+            if start < 0:
+                continue  # free text the compass prints in answer to commands
+            out.append(raw[start:].decode("ascii", "replace"))
+        return out
+
+
+class Os5000:
+    """The compass on a serial port: ``read()`` returns the next valid reading.
+
+    Corrupt sentences are counted in ``rejected`` and skipped; no valid sentence within
+    ``timeout`` raises :class:`DeviceTimeout`.
+    """
+
+    def __init__(self, port: Any, timeout: float = 0.5, clock: Any = time.monotonic) -> None:
+        if isinstance(port, str):
+            import serial
+
+            port = serial.serial_for_url(port, baudrate=19200, timeout=0.01)
+        self.port = port
+        self.timeout = timeout
+        self.clock = clock
+        self.lines = LineSplitter()
+        self.rejected = 0
+        self._pending: list[str] = []
+
+    def set_rate(self, hz: int) -> None:
+        """``<ESC>R<n><CR>``: sentences per second (0 stops the stream)."""
+        self.port.write(b"\x1bR" + str(int(hz)).encode() + b"\r")
+
+    def read(self) -> CompassReading:
+        deadline = self.clock() + self.timeout
+        while True:
+            while self._pending:
+                line = self._pending.pop(0)
+                try:
+                    return parse_sentence(line)
+                except (ChecksumError, ProtocolError):
+                    self.rejected += 1
+            if self.clock() >= deadline:
+                raise DeviceTimeout(DEVICE, f"no valid sentence within {self.timeout:g} s")
+            try:
+                chunk = self.port.read(self.port.in_waiting or 1)
+            except OSError as exc:
+                raise ProtocolError(DEVICE, f"the port failed ({exc})") from None
+            self._pending.extend(self.lines.feed(chunk))
