@@ -38,6 +38,7 @@ __all__ = [
     "PIDGains",
     "PIDState",
     "StepInfo",
+    "cascade_acceleration",
     "pid_step",
     "pole_placement_pi",
     "simulate_motor",
@@ -199,6 +200,17 @@ class PID:
         self.state = PIDState()
 
 
+def cascade_acceleration(speed_setpoint: float, speed: float, speed_gain: float,
+                         max_acceleration: float) -> float:
+    """The cascade's outer loop: P on the speed error, limited to ±``max_acceleration``.
+
+    >>> cascade_acceleration(0.5, 0.0, 4.0, 0.5)
+    0.5
+    """
+    wanted = speed_gain * (speed_setpoint - speed)
+    return float(min(max(wanted, -max_acceleration), max_acceleration))
+
+
 class CascadeController:
     """Eddie's board: P on the speed error gives a desired acceleration, which is limited and
     followed by a PID (on the acceleration error) whose output is the motor power.
@@ -224,8 +236,8 @@ class CascadeController:
 
     def __call__(self, speed_setpoint: float, speed: float) -> float:
         dt = self.inner.gains.dt
-        wanted = self.speed_gain * (speed_setpoint - speed)
-        wanted = min(max(wanted, -self.max_acceleration), self.max_acceleration)
+        wanted = cascade_acceleration(speed_setpoint, speed, self.speed_gain,
+                                      self.max_acceleration)
         if self._last_speed is not None:  # acceleration from the differentiated speed
             self.acceleration += 0.5 * ((speed - self._last_speed) / dt - self.acceleration)
         self._last_speed = speed

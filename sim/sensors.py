@@ -59,12 +59,11 @@ class Imu:
         self.next_time = 0.0
         self._normals = np.empty(0)
         self._next_normal = 0
-        nan_or = -1.0
         self.cov_orientation = self._cov(self.yaw_std ** 2 or 1e-6, 1e-6)
         self.cov_gyro = self._cov(self.gyro_std ** 2, 1e-6) if self.gyro_std else \
-            self._unavailable(nan_or)
+            self._unavailable()
         self.cov_accel = self._cov(self.accel_std ** 2, self.accel_std ** 2) if \
-            self.accel_std else self._unavailable(nan_or)
+            self.accel_std else self._unavailable()
 
     @staticmethod
     def _cov(z: float, other: float) -> FloatArray:
@@ -73,9 +72,10 @@ class Imu:
         return c
 
     @staticmethod
-    def _unavailable(value: float) -> FloatArray:
+    def _unavailable() -> FloatArray:
+        """ROS's mark for "not provided": −1 as the covariance's first element."""
         c = np.zeros(9)
-        c[0] = value
+        c[0] = -1.0
         c.flags.writeable = False
         return c
 
