@@ -11,16 +11,20 @@ check bit is 1; otherwise one byte is skipped. Facts and vectors: ``protocols.md
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from kit import msgs
 from kit.drivers.checksums import xor_checksum
-from kit.drivers.errors import ProtocolError
+from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError
+from kit.drivers.port import Link
 
-__all__ = ["DEVICE", "Node", "NodeParser", "decode_node", "encode_request",
-           "parse_descriptor", "revolution_to_scan", "split_revolutions"]
+__all__ = ["DEVICE", "Node", "NodeParser", "RPLidar", "decode_node", "encode_node",
+           "encode_request", "parse_descriptor", "revolution_to_scan", "split_revolutions"]
 
 DEVICE = "RPLidar"
 STOP, RESET, SCAN, FORCE_SCAN, GET_INFO, GET_HEALTH, GET_SAMPLERATE = (
@@ -79,6 +83,21 @@ def decode_node(raw: bytes) -> Node | None:
     angle_q6 = (b1 >> 1) | (raw[2] << 7)
     return Node(bool(b0 & 1), b0 >> 2, angle_q6 / 64.0,
                 int.from_bytes(raw[3:5], "little") / 4.0)
+
+
+def encode_node(start: bool, quality: int, angle_deg: float, distance_mm: float) -> bytes:
+    """The 5 bytes of a node (the device side; emulators and tests use it).
+
+    >>> encode_node(True, 15, 90.0, 1000.0).hex(" ").upper()
+    '3D 01 2D A0 0F'
+    """
+    if not 0 <= quality <= 63:
+        raise ValueError(f"quality is 0..63; got {quality}")
+    angle_q6 = round(angle_deg * 64.0) % (360 * 64)
+    distance_q2 = min(max(round(distance_mm * 4.0), 0), 0xFFFF)
+    b0 = (quality << 2) | (0 if start else 2) | int(start)
+    return bytes([b0]) + ((angle_q6 << 1) | 1).to_bytes(2, "little") + \
+        distance_q2.to_bytes(2, "little")
 
 
 class NodeParser:
@@ -146,3 +165,141 @@ def split_revolutions(nodes: list[Node]) -> list[list[Node]]:
         if turns:
             turns[-1].append(node)
     return turns
+
+
+class RPLidar:
+    """An RPLidar A1 on a serial port: health, info, the standard scan, and full turns as
+    counter-clockwise ``LaserScan`` messages (:meth:`read_scan`).
+
+    The A1's motor runs while DTR is low; a pseudo-terminal cannot set DTR (the ``OSError``
+    is caught), and its emulator keeps the motor running.
+    """
+
+    def __init__(self, port: Any, timeout: float = 1.0,
+                 clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep,
+                 frame_id: str = "laser_link", beams: int = 360) -> None:
+        self.link = Link(DEVICE, port, 115200, 0.01, clock, sleep)
+        self.timeout = timeout
+        self.frame_id = frame_id
+        self.beams = beams
+        self.parser = NodeParser()
+        self.scanning = False
+        self._turn: list[Node] = []
+        self._nodes: list[Node] = []
+        self._turn_started = self._last_start = 0.0
+
+    def _motor(self, run: bool) -> None:
+        try:
+            self.link.port.dtr = not run
+        except (OSError, AttributeError):
+            pass  # a pseudo-terminal cannot set DTR (protocols.md §0)
+
+    def _read_exact(self, n: int, what: str) -> bytes:
+        link = self.link
+        deadline = link.clock() + self.timeout
+        data = bytearray()
+        while len(data) < n:
+            if link.clock() >= deadline:
+                raise DeviceTimeout(DEVICE, f"{what}: {len(data)} of {n} bytes within "
+                                            f"{self.timeout:g} s")
+            try:
+                chunk = link.port.read(n - len(data))
+            except (OSError, TypeError) as exc:
+                raise ProtocolError(DEVICE, f"{what}: the port failed ({exc})") from None
+            data += chunk
+        return bytes(data)
+
+    def _command(self, command: int, what: str, expect_type: int | None,
+                 payload: bytes | None = None) -> bytes:
+        self.link.clear(what)
+        self.link.write(encode_request(command, payload), what)
+        if expect_type is None:
+            return b""
+        length, mode, kind = parse_descriptor(self._read_exact(7, what))
+        if kind != expect_type:
+            raise ProtocolError(DEVICE, f"{what}: reply type 0x{kind:02X}, expected "
+                                        f"0x{expect_type:02X}")
+        if mode == 1:
+            return b""  # a stream follows
+        return self._read_exact(length, what)
+
+    def health(self) -> tuple[int, int]:
+        """(status 0 good / 1 warning / 2 error, error code)."""
+        data = self._command(GET_HEALTH, "get health", 0x06)
+        return data[0], int.from_bytes(data[1:3], "little")
+
+    def info(self) -> dict[str, Any]:
+        data = self._command(GET_INFO, "get info", 0x04)
+        return {"model": data[0], "firmware": (data[2], data[1]), "hardware": data[3],
+                "serial": data[4:20].hex().upper()}
+
+    def sample_time_us(self) -> tuple[int, int]:
+        """Microseconds per sample: (standard scan, express scan)."""
+        data = self._command(GET_SAMPLERATE, "get sample rate", 0x15)
+        return int.from_bytes(data[0:2], "little"), int.from_bytes(data[2:4], "little")
+
+    def reset(self, wait: float = 2.0) -> None:
+        self._command(RESET, "reset", None)
+        self.link.sleep(wait)
+        self.link.clear("reset")
+
+    def start(self) -> None:
+        """Motor on, health checked (a device in error is reset once), standard scan on."""
+        self._motor(True)
+        status, code = self.health()
+        if status == 2:
+            self.reset()
+            status, code = self.health()
+            if status == 2:
+                raise DeviceError(DEVICE, f"health: error 0x{code:04X} after a reset", code)
+        self._command(STOP, "stop", None)
+        self.link.sleep(0.002)
+        self.link.clear("stop")
+        self.link.write(encode_request(SCAN), "scan")
+        descriptor = self._read_exact(7, "scan")
+        if descriptor != SCAN_DESCRIPTOR:
+            raise ProtocolError(DEVICE, f"scan: descriptor {descriptor.hex(' ')} is not "
+                                        f"{SCAN_DESCRIPTOR.hex(' ')}")
+        self.parser = NodeParser()
+        self._turn, self._nodes = [], []
+        self.scanning = True
+
+    def stop(self) -> None:
+        self._command(STOP, "stop", None)
+        self.link.sleep(0.002)
+        self.link.clear("stop")
+        self.scanning = False
+        self._motor(False)
+
+    def read_revolution(self) -> list[Node]:
+        """The nodes of the next complete turn (from one start flag to the next)."""
+        if not self.scanning:
+            raise ProtocolError(DEVICE, "read: call start() first")
+        link = self.link
+        deadline = link.clock() + self.timeout
+        while True:
+            while self._nodes:
+                node = self._nodes.pop(0)
+                if node.start:
+                    turn, self._turn = self._turn, [node]
+                    started, self._turn_started = self._turn_started, link.clock()
+                    if turn and turn[0].start:
+                        self._last_start = started
+                        return turn
+                elif self._turn:
+                    self._turn.append(node)
+            if link.clock() >= deadline:
+                raise DeviceTimeout(DEVICE, f"read scan: no complete turn within "
+                                            f"{self.timeout:g} s")
+            self._nodes.extend(self.parser.feed(link.read_some("read scan")))
+
+    def read_scan(self) -> msgs.LaserScan:
+        """The next complete turn as a counter-clockwise ``LaserScan``."""
+        turn = self.read_revolution()
+        scan_time = max(self._turn_started - self._last_start, 1e-3)
+        return revolution_to_scan(turn, msgs.Time.from_sec(self._last_start), self.frame_id,
+                                  self.beams, scan_time)
+
+    def close(self) -> None:
+        self.link.close()

@@ -1,0 +1,370 @@
+"""What every emulator shares: a logical clock, seeded fault injection, the device base
+class, an in-process serial port on the logical clock, and a pseudo-terminal server.
+
+A device is a state machine fed with the host's bytes at a time ``now`` and asked for the
+bytes it has sent by a time ``now``; it never reads a clock itself. That is what lets the
+same device run on a pseudo-terminal in real time (:class:`PtyServer`) or in lock-step with
+a driver on a logical clock (:class:`LogicalPort`), where a 40 s bring-up takes
+milliseconds.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import pty
+import random
+import select
+import termios
+import threading
+import time
+import tty
+from dataclasses import dataclass, fields
+from typing import Any
+
+__all__ = ["BAUD_CONSTANTS", "Clock", "Device", "Faults", "LogicalPort", "PtyServer"]
+
+BAUD_CONSTANTS = {getattr(termios, f"B{b}"): b for b in
+                  (4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800, 500000, 921600)
+                  if hasattr(termios, f"B{b}")}
+
+
+class Clock:
+    """A logical clock: ``clock()`` is the time now [s]; ``clock.sleep(dt)`` moves it on.
+
+    Pass ``clock`` and ``clock.sleep`` to a driver and the driver's time-outs and waits run
+    on it, so nothing ever waits in wall time.
+    """
+
+    def __init__(self, start: float = 0.0) -> None:
+        self.now = float(start)
+
+    def __call__(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        if seconds > 0:
+            self.now += seconds
+
+    def __repr__(self) -> str:
+        return f"Clock(now={self.now:.6f})"
+
+
+@dataclass(frozen=True)
+class Faults:
+    """Seeded fault injection on what a device sends.
+
+    ``flip``, ``drop`` and ``duplicate`` are per-byte probabilities (a flipped byte has one
+    random bit inverted); ``delay`` is the probability that a reply (or streamed chunk) comes
+    ``delay_s`` late; ``silence`` the probability that the device stops answering for
+    ``silence_s``; ``error`` the probability that a request gets the device's error reply
+    instead of its answer. The same seed injects the same faults.
+    """
+
+    seed: int = 0
+    flip: float = 0.0
+    drop: float = 0.0
+    duplicate: float = 0.0
+    delay: float = 0.0
+    delay_s: float = 0.05
+    silence: float = 0.0
+    silence_s: float = 1.0
+    error: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("flip", "drop", "duplicate", "delay", "silence", "error"):
+            p = getattr(self, name)
+            if not 0.0 <= p <= 1.0:
+                raise ValueError(f"fault probability {name} must be in [0, 1]; got {p}")
+        for name in ("delay_s", "silence_s"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0; got {getattr(self, name)}")
+
+    @property
+    def any(self) -> bool:
+        return any((self.flip, self.drop, self.duplicate, self.delay, self.silence, self.error))
+
+    @classmethod
+    def parse(cls, text: str) -> Faults:
+        """``"seed=3,flip=0.001,drop=0.01"`` (the command line's ``--faults``)."""
+        known = {f.name: f.type for f in fields(cls)}
+        values: dict[str, Any] = {}
+        for item in filter(None, (part.strip() for part in text.split(","))):
+            key, sep, value = item.partition("=")
+            if not sep or key not in known:
+                raise ValueError(f"unknown fault {item!r}; known: {', '.join(known)}")
+            values[key] = int(value) if key == "seed" else float(value)
+        return cls(**values)
+
+
+class Device:
+    """The device side of a protocol. Subclasses implement :meth:`receive` (the host's
+    bytes) and may implement :meth:`stream` (output that flows without a request); both
+    answer through :meth:`send`, which applies the transmission time at the device's baud
+    rate and the fault injection.
+
+    ``host_baud`` is the rate the host's port is set to (a pseudo-terminal's or a
+    :class:`LogicalPort`'s); a device whose ``baudrate`` differs hears garbage and sends
+    garbage, as a real serial link does.
+    """
+
+    name = "device"
+    baudrate = 115200
+    latency = 0.0005
+    """seconds from the end of a request to the first byte of the reply."""
+
+    def __init__(self, faults: Faults | None = None) -> None:
+        self.faults = faults or Faults()
+        self.rng = random.Random(self.faults.seed)
+        self._out: list[tuple[float, bytes, int]] = []
+        self._silent_until = -math.inf
+        self._line_free = 0.0  # when the device's transmitter is free again
+        self.received = 0
+        self.sent = 0
+
+    # ------------------------------------------------------------------ to implement
+    def receive(self, data: bytes, now: float) -> None:
+        raise NotImplementedError
+
+    def stream(self, now: float) -> None:
+        """Schedule whatever the device sends by itself up to ``now`` (default: nothing)."""
+
+    def error_reply(self, reply: bytes) -> bytes | None:
+        """The error reply the fault injector may put in place of ``reply`` (default: none)."""
+        return None
+
+    # ------------------------------------------------------------------ plumbing
+    def byte_time(self, n: int) -> float:
+        return 10.0 * n / self.baudrate
+
+    def send(self, data: bytes, now: float, *, reply: bool = True) -> None:
+        """Queue ``data`` to go out at ``now`` (after the link is free), faults applied."""
+        if not data:
+            return
+        f = self.faults
+        if f.any:
+            rng = self.rng
+            if now < self._silent_until:
+                return
+            if f.silence and rng.random() < f.silence:
+                self._silent_until = now + f.silence_s
+                return
+            if reply and f.error and rng.random() < f.error:
+                data = self.error_reply(data) or data
+            if f.delay and rng.random() < f.delay:
+                now += f.delay_s
+            if f.flip or f.drop or f.duplicate:
+                out = bytearray()
+                for b in data:
+                    if f.drop and rng.random() < f.drop:
+                        continue
+                    if f.flip and rng.random() < f.flip:
+                        b ^= 1 << rng.randrange(8)
+                    out.append(b)
+                    if f.duplicate and rng.random() < f.duplicate:
+                        out.append(b)
+                data = bytes(out)
+        start = max(now + (self.latency if reply else 0.0), self._line_free)
+        self._line_free = start + self.byte_time(len(data))
+        self._out.append((self._line_free, data, self.baudrate))
+
+    def feed(self, data: bytes, now: float, host_baud: int | None = None) -> None:
+        """Bytes from the host; at a mismatched baud rate the device hears noise."""
+        self.received += len(data)
+        if host_baud is not None and host_baud != self.baudrate:
+            return
+        self.receive(data, now)
+
+    def read(self, now: float, host_baud: int | None = None) -> bytes:
+        """Everything the device has finished sending by ``now``."""
+        self.stream(now)
+        if not self._out:
+            return b""
+        due = [item for item in self._out if item[0] <= now]
+        if not due:
+            return b""
+        self._out = [item for item in self._out if item[0] > now]
+        out = bytearray()
+        for _, chunk, baud in due:
+            self.sent += len(chunk)
+            if host_baud is not None and host_baud != baud:
+                # sent at another speed: the host's UART samples noise
+                out += bytes(self.rng.randrange(256) for _ in chunk)
+            else:
+                out += chunk
+        return bytes(out)
+
+    def next_due(self) -> float | None:
+        """When the next queued byte lands (``None`` if nothing is queued)."""
+        return min((item[0] for item in self._out), default=None)
+
+    def flush_output(self) -> None:
+        self._out.clear()
+
+
+class LogicalPort:
+    """A pyserial-like port connected in-process to a device, on a logical :class:`Clock`.
+
+    Writing takes the bytes' transmission time; reading returns what the device has sent by
+    now and, when nothing has come, lets the clock run on to the next byte or the read's
+    time-out (so a silent device times out in logical time). Several ports may share one
+    clock (a robot's devices), which also drives a simulator behind them.
+    """
+
+    def __init__(self, device: Device, clock: Clock | None = None,
+                 baudrate: int | None = None, timeout: float | None = 0.01) -> None:
+        self.device = device
+        self.clock = clock or Clock()
+        self.baudrate = int(baudrate or device.baudrate)
+        self.timeout = timeout
+        self.is_open = True
+        self._buffer = bytearray()
+        self.name = f"logical://{device.name}"
+
+    def _check(self) -> None:
+        if not self.is_open:
+            import serial
+
+            raise serial.PortNotOpenError()
+
+    def _pull(self) -> None:
+        self._buffer += self.device.read(self.clock.now, self.baudrate)
+
+    def write(self, data: bytes) -> int:
+        self._check()
+        data = bytes(data)
+        self.clock.now += 10.0 * len(data) / self.baudrate
+        self.device.feed(data, self.clock.now, self.baudrate)
+        return len(data)
+
+    @property
+    def in_waiting(self) -> int:
+        self._check()
+        self._pull()
+        return len(self._buffer)
+
+    def read(self, size: int = 1) -> bytes:
+        self._check()
+        self._pull()
+        if len(self._buffer) < size:
+            deadline = self.clock.now + (self.timeout if self.timeout is not None else 1.0)
+            while len(self._buffer) < size and self.clock.now < deadline:
+                nxt = self.device.next_due()
+                target = deadline if nxt is None else min(max(nxt, self.clock.now), deadline)
+                # streaming devices schedule as time passes: never jump more than 1 ms blind
+                self.clock.now = min(target, self.clock.now + 0.001) if nxt is None else target
+                self._pull()
+        out = bytes(self._buffer[:size])
+        del self._buffer[:size]
+        return out
+
+    def reset_input_buffer(self) -> None:
+        self._check()
+        self._pull()
+        self._buffer.clear()
+
+    def reset_output_buffer(self) -> None:
+        self._check()
+
+    def flush(self) -> None:
+        self._check()
+
+    def close(self) -> None:
+        self.is_open = False
+
+    # a pseudo-terminal cannot change DTR/RTS either (protocols.md §0)
+    @property
+    def dtr(self) -> bool:
+        return False
+
+    @dtr.setter
+    def dtr(self, value: bool) -> None:
+        raise OSError(25, "Inappropriate ioctl for device")
+
+    @property
+    def rts(self) -> bool:
+        return False
+
+    @rts.setter
+    def rts(self, value: bool) -> None:
+        raise OSError(25, "Inappropriate ioctl for device")
+
+    def __enter__(self) -> LogicalPort:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class PtyServer:
+    """Serves a device on a pseudo-terminal in real time, on a background thread.
+
+    ``path`` is the slave's name (``/dev/pts/N``) for any serial driver to open. The slave
+    is put in raw mode at once (protocols.md §0) and kept open by the server so the master
+    never sees a hang-up between a driver's sessions.
+    """
+
+    def __init__(self, device: Device, clock: Any = time.monotonic) -> None:
+        self.device = device
+        self.clock = clock
+        self.master, self.slave = pty.openpty()
+        tty.setraw(self.slave)
+        self.path = os.ttyname(self.slave)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.t0 = clock()
+
+    def host_baud(self) -> int | None:
+        try:
+            speed = termios.tcgetattr(self.master)[4]
+        except termios.error:
+            return None
+        return BAUD_CONSTANTS.get(speed)
+
+    def now(self) -> float:
+        return self.clock() - self.t0
+
+    def serve(self) -> None:
+        """Run until :meth:`stop` (the command line runs this in the foreground)."""
+        device = self.device
+        while not self._stop.is_set():
+            now = self.now()
+            nxt = device.next_due()
+            wait = 0.002 if nxt is None else min(0.002, max(nxt - now, 0.0))
+            try:
+                readable, _, _ = select.select([self.master], [], [], wait)
+                now = self.now()
+                baud = self.host_baud()
+                if readable:
+                    data = os.read(self.master, 4096)
+                    if data:
+                        device.feed(data, now, baud)
+                out = device.read(now, baud)
+                if out:
+                    os.write(self.master, out)
+            except OSError:
+                if self._stop.is_set():
+                    return
+                time.sleep(0.01)  # nobody on the other side right now
+
+    def start(self) -> PtyServer:
+        self._thread = threading.Thread(target=self.serve, daemon=True,
+                                        name=f"emulator-{self.device.name}")
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+        for fd in (self.master, self.slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+
+    def __enter__(self) -> PtyServer:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

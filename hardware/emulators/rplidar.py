@@ -1,0 +1,160 @@
+"""Slamtec RPLidar A1 (``protocols.md`` §6): the device side.
+
+Answers GET_INFO, GET_HEALTH and GET_SAMPLERATE with a descriptor and payload; streams
+5-byte standard-scan nodes only after SCAN (or FORCE_SCAN), paced at ``samples_per_second``
+with the start flag on the first node of each turn, until STOP; RESET ends the stream and
+prints a boot banner; SET_MOTOR_PWM is ignored (the A1's motor follows DTR, which a
+pseudo-terminal cannot carry, so the motor is taken to be running). ``health=2`` makes the
+device report an error until it is reset.
+
+Ranges come from the backend's lidar: each simulated scan (counter-clockwise beams, the
+turn's motion distortion included) is sent as one turn of clockwise nodes; on its own the
+emulator sees an 8 m × 8 m room.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from hardware.emulators.core import Device, Faults
+from kit.drivers.rplidar import (FORCE_SCAN, GET_HEALTH, GET_INFO, GET_SAMPLERATE, RESET,
+                                 SCAN, SCAN_DESCRIPTOR, STOP, encode_node)
+
+__all__ = ["RPLidarEmulator"]
+
+INFO = bytes.fromhex("A55A1400000004") + bytes([0x18, 0x1D, 0x01, 0x07]) + \
+    bytes.fromhex("6A9C9AF0C5E09ED2A0EAFBF7C3554A1D")
+BANNER = b"RP LIDAR System.\r\nFirmware Ver 1.29 - rc9, HW Ver 7\r\nModel: 18\r\n"
+
+
+class RPLidarEmulator(Device):
+    name = "rplidar"
+    baudrate = 115200
+
+    def __init__(self, backend: Any = None, samples_per_second: float = 2000.0,
+                 turns_per_second: float = 5.5, health: int = 0,
+                 faults: Faults | None = None) -> None:
+        super().__init__(faults)
+        self.backend = backend
+        self.sample_time = 1.0 / samples_per_second
+        self.turns_per_second = turns_per_second
+        self.health = health
+        self.scanning = False
+        self._buffer = bytearray()
+        self._pending: list[bytes] = []  # nodes of the turn being sent
+        self._next_node = 0.0
+        self._turn_from_sim: list[bytes] | None = None
+        self.turns_sent = 0
+        if backend is not None and hasattr(backend, "subscribe"):
+            backend.subscribe("scan", self._on_scan)
+
+    # ------------------------------------------------------------------ requests
+    def receive(self, data: bytes, now: float) -> None:
+        buf = self._buffer
+        buf += data
+        while buf:
+            if buf[0] != 0xA5:
+                del buf[:1]
+                continue
+            if len(buf) < 2:
+                return
+            cmd = buf[1]
+            if cmd & 0x80:  # a request with a payload: A5 cmd len payload chk
+                if len(buf) < 3 or len(buf) < 4 + buf[2]:
+                    return
+                size = 4 + buf[2]
+                chk = 0
+                for b in buf[:size - 1]:
+                    chk ^= b
+                del buf[:size]
+                continue  # EXPRESS_SCAN, SET_MOTOR_PWM, ACC_BOARD_FLAG: not on this A1 model
+            del buf[:2]
+            self._command(cmd, now)
+
+    def _command(self, cmd: int, now: float) -> None:
+        if cmd == STOP:
+            self._stop()
+        elif cmd == RESET:
+            self._stop()
+            self.health = 0
+            self.send(BANNER, now + 0.5, reply=False)
+        elif cmd == GET_INFO:
+            self.send(INFO, now)
+        elif cmd == GET_HEALTH:
+            code = 0x8000 if self.health == 2 else 0
+            self.send(bytes.fromhex("A55A0300000006") + bytes([self.health]) +
+                      code.to_bytes(2, "little"), now)
+        elif cmd == GET_SAMPLERATE:
+            us = round(self.sample_time * 1e6)
+            self.send(bytes.fromhex("A55A0400000015") + us.to_bytes(2, "little") +
+                      (us // 4).to_bytes(2, "little"), now)
+        elif cmd in (SCAN, FORCE_SCAN):
+            if self.health == 2 and cmd == SCAN:
+                return  # a device in error does not scan
+            self.send(SCAN_DESCRIPTOR, now)
+            self.scanning = True
+            self._pending = []
+            self._next_node = self._line_free
+
+    def error_reply(self, reply: bytes) -> bytes | None:
+        if reply.startswith(bytes.fromhex("A55A0300000006")):
+            return bytes.fromhex("A55A0300000006") + bytes([2, 0x00, 0x80])
+        return None
+
+    def _stop(self) -> None:
+        self.scanning = False
+        self._pending = []
+        self._out.clear()  # what was queued but not yet sent never goes out
+
+    # ------------------------------------------------------------------ the turning head
+    def _on_scan(self, message: Any) -> None:
+        """A simulated scan (counter-clockwise beams) → one turn of clockwise nodes."""
+        ranges = np.asarray(message.ranges, dtype=np.float64)
+        n = len(ranges)
+        angles = message.angle_min + message.angle_increment * np.arange(n)
+        cw = np.degrees(-angles) % 360.0
+        order = np.argsort(cw, kind="stable")
+        nodes = []
+        for k, i in enumerate(order):
+            r = ranges[i]
+            ok = math.isfinite(r) and r > 0
+            nodes.append(encode_node(k == 0, 47 if ok else 0, float(cw[i]),
+                                     r * 1000.0 if ok else 0.0))
+        self._turn_from_sim = nodes
+
+    def _room_turn(self) -> list[bytes]:
+        n = round(1.0 / (self.sample_time * self.turns_per_second))
+        cw = np.arange(n) * 360.0 / n
+        a = np.radians(-cw)
+        c, s = np.abs(np.cos(a)), np.abs(np.sin(a))
+        r = np.minimum(4.0 / np.maximum(c, 1e-12), 4.0 / np.maximum(s, 1e-12))
+        return [encode_node(k == 0, 47, float(cw[k]), float(r[k]) * 1000.0) for k in range(n)]
+
+    def stream(self, now: float) -> None:
+        if not self.scanning:
+            return
+        while self._next_node <= now:
+            if not self._pending:
+                if self.backend is not None:
+                    self.backend.advance(self._next_node)
+                    turn, self._turn_from_sim = self._turn_from_sim, None
+                    if turn is None:
+                        # no complete simulated turn yet: the head turns, nothing to send
+                        self._next_node += self.sample_time
+                        continue
+                    self._pending = turn
+                else:
+                    self._pending = self._room_turn()
+                self._pending.reverse()
+                self.turns_sent += 1
+            batch = bytearray()
+            t = self._next_node
+            while self._pending and self._next_node <= now:
+                batch += self._pending.pop()
+                self._next_node += self.sample_time
+            self.send(bytes(batch), t, reply=False)
+            if now - self._next_node > 1.0:
+                self._next_node = now  # nobody read for a long time: do not backlog
