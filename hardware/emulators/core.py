@@ -297,26 +297,42 @@ class LogicalPort:
 
 
 class PtyServer:
-    """Serves a device on a pseudo-terminal in real time, on a background thread.
+    """Serves one or more devices, each on its own pseudo-terminal, in real time.
 
-    ``path`` is the slave's name (``/dev/pts/N``) for any serial driver to open. The slave
-    is put in raw mode at once (protocols.md §0) and kept open by the server so the master
-    never sees a hang-up between a driver's sessions.
+    ``path`` (or ``paths[i]``) is a slave's name (``/dev/pts/N``) for any serial driver to
+    open. Each slave is put in raw mode at once (protocols.md §0) and kept open by the
+    server so the master never sees a hang-up between a driver's sessions. All devices are
+    served by one thread, so devices that share a simulated robot never race.
     """
 
-    def __init__(self, device: Device, clock: Any = time.monotonic) -> None:
-        self.device = device
+    def __init__(self, device: Device | list[Device], clock: Any = time.monotonic) -> None:
+        self.devices = list(device) if isinstance(device, (list, tuple)) else [device]
         self.clock = clock
-        self.master, self.slave = pty.openpty()
-        tty.setraw(self.slave)
-        self.path = os.ttyname(self.slave)
+        self.masters: list[int] = []
+        self.slaves: list[int] = []
+        self.paths: list[str] = []
+        for _ in self.devices:
+            master, slave = pty.openpty()
+            tty.setraw(slave)
+            self.masters.append(master)
+            self.slaves.append(slave)
+            self.paths.append(os.ttyname(slave))
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.t0 = clock()
 
-    def host_baud(self) -> int | None:
+    @property
+    def device(self) -> Device:
+        return self.devices[0]
+
+    @property
+    def path(self) -> str:
+        return self.paths[0]
+
+    @staticmethod
+    def host_baud(master: int) -> int | None:
         try:
-            speed = termios.tcgetattr(self.master)[4]
+            speed = termios.tcgetattr(master)[4]
         except termios.error:
             return None
         return BAUD_CONSTANTS.get(speed)
@@ -326,22 +342,23 @@ class PtyServer:
 
     def serve(self) -> None:
         """Run until :meth:`stop` (the command line runs this in the foreground)."""
-        device = self.device
+        channels = list(zip(self.devices, self.masters, strict=True))
+        by_fd = {master: device for device, master in channels}
         while not self._stop.is_set():
             now = self.now()
-            nxt = device.next_due()
-            wait = 0.002 if nxt is None else min(0.002, max(nxt - now, 0.0))
+            dues = [d.next_due() for d in self.devices]
+            wait = min([0.002] + [max(t - now, 0.0) for t in dues if t is not None])
             try:
-                readable, _, _ = select.select([self.master], [], [], wait)
+                readable, _, _ = select.select(self.masters, [], [], wait)
                 now = self.now()
-                baud = self.host_baud()
-                if readable:
-                    data = os.read(self.master, 4096)
+                for master in readable:
+                    data = os.read(master, 4096)
                     if data:
-                        device.feed(data, now, baud)
-                out = device.read(now, baud)
-                if out:
-                    os.write(self.master, out)
+                        by_fd[master].feed(data, now, self.host_baud(master))
+                for device, master in channels:
+                    out = device.read(now, self.host_baud(master))
+                    if out:
+                        os.write(master, out)
             except OSError:
                 if self._stop.is_set():
                     return
@@ -349,7 +366,7 @@ class PtyServer:
 
     def start(self) -> PtyServer:
         self._thread = threading.Thread(target=self.serve, daemon=True,
-                                        name=f"emulator-{self.device.name}")
+                                        name=f"emulator-{self.devices[0].name}")
         self._thread.start()
         return self
 
@@ -357,7 +374,7 @@ class PtyServer:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)
-        for fd in (self.master, self.slave):
+        for fd in self.masters + self.slaves:
             try:
                 os.close(fd)
             except OSError:
