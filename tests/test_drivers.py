@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import os
 import pty
-import threading
 import time
 import tty
 
@@ -140,51 +139,6 @@ def _reencode(frame: dpralte.Frame) -> bytes:
 
 # ------------------------------------------------------------------ over a real port
 
-class FakeDrive(threading.Thread):
-    """The device side on a pseudo-terminal: answers like §1.9's checklist asks."""
-
-    def __init__(self, master: int, silent: bool = False) -> None:
-        super().__init__(daemon=True)
-        self.master, self.silent = master, silent
-        self.access = False
-        self.position = 0
-        self.velocity = 0
-        self.stop = False
-
-    def reply(self, control: int, status: int, data: bytes = b"") -> bytes:
-        command = 2 if data else 1
-        head = bytes([0xA5, 0xFF, command | (control & 0x3C), status, 0, len(data) // 2])
-        out = head + cs.crc16_xmodem(head).to_bytes(2, "big")
-        return out + (data + cs.crc16_xmodem(data).to_bytes(2, "big") if data else b"")
-
-    def run(self) -> None:
-        parser = dpralte.FrameParser()
-        while not self.stop:
-            try:
-                chunk = os.read(self.master, 256)
-            except OSError:
-                return
-            for f in parser.feed(chunk):
-                if f.is_reply or self.silent:
-                    continue
-                control = f.command | f.sequence << 2
-                if f.command == 2 and (f.a, f.b) == (0x07, 0x00):
-                    self.access = True
-                    os.write(self.master, self.reply(control, 1))
-                elif f.command == 2 and not self.access:
-                    os.write(self.master, self.reply(control, 6))
-                elif f.command == 2:
-                    if f.a == 0x45:
-                        self.velocity = int.from_bytes(f.data, "little", signed=True)
-                        self.position += self.velocity
-                    os.write(self.master, self.reply(control, 1))
-                elif (f.a, f.b) == (0x12, 0x00):
-                    os.write(self.master, self.reply(control, 1, dpralte.int32_words(
-                        self.position)))
-                else:
-                    os.write(self.master, self.reply(control, 4))
-
-
 @pytest.fixture
 def pty_pair():
     master, slave = pty.openpty()
@@ -195,31 +149,35 @@ def pty_pair():
     os.close(slave)
 
 
-def test_driver_talks_to_a_drive_over_a_port(pty_pair):
-    master, name = pty_pair
-    device = FakeDrive(master)
-    device.start()
-    drive = dpralte.DpralteDrive(name, 0x3F, velocity_offset=0x02, timeout=1.0)
-    with pytest.raises(DeviceError, match="no write access") as info:
+def test_driver_talks_to_a_drive_over_a_port():
+    from hardware.emulators import PtyServer
+    from hardware.emulators.dpralte import DpralteBusEmulator
+
+    with PtyServer(DpralteBusEmulator()) as server:
+        drive = dpralte.DpralteDrive(server.path, 0x3F, velocity_offset=0x02, timeout=1.0)
+        with pytest.raises(DeviceError, match="no write access") as info:
+            drive.enable()
+        assert info.value.code == 6
+        drive.get_write_access()
         drive.enable()
-    assert info.value.code == 6
-    drive.get_write_access()
-    drive.enable()
-    assert drive.set_velocity_rpm(10.0) == 437
-    assert drive.read_position() == 437
-    with pytest.raises(DeviceError, match="invalid command"):
-        drive.read_velocity_rpm()
-    device.stop = True
+        assert drive.set_velocity_rpm(10.0) == 437
+        time.sleep(0.1)
+        assert drive.read_velocity_rpm() == pytest.approx(10.0, abs=0.01)
+        assert drive.read_position() > 0
+        with pytest.raises(DeviceError, match="invalid command"):
+            drive.read((0x99, 0x00), 1, "read an unknown index")
 
 
-def test_a_silent_drive_times_out_naming_device_and_command(pty_pair):
-    master, name = pty_pair
-    FakeDrive(master, silent=True).start()
-    drive = dpralte.DpralteDrive(name, 0x3E, timeout=0.2)
-    start = time.monotonic()
-    with pytest.raises(DeviceTimeout, match=r"DPRALTE: read position: no reply from 0x3E"):
-        drive.read_position()
-    assert time.monotonic() - start < 0.5
+def test_a_silent_drive_times_out_naming_device_and_command():
+    from hardware.emulators import Faults, PtyServer
+    from hardware.emulators.dpralte import DpralteBusEmulator
+
+    with PtyServer(DpralteBusEmulator(faults=Faults(silence=1.0, silence_s=1e9))) as server:
+        drive = dpralte.DpralteDrive(server.path, 0x3E, timeout=0.2)
+        start = time.monotonic()
+        with pytest.raises(DeviceTimeout, match=r"DPRALTE: read position: no reply from 0x3E"):
+            drive.read_position()
+        assert time.monotonic() - start < 0.5
 
 
 def test_a_closed_port_is_a_clear_error():

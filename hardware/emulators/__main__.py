@@ -38,7 +38,7 @@ def make_device(name: str, backend: Any = None, faults: Faults | None = None) ->
                  "os5000": os5000.Os5000Emulator}
     if name not in factories:
         raise ValueError(f"unknown device {name!r}; known: {', '.join(DEVICES)}")
-    return factories[name](backend, faults=faults)  # type: ignore[operator]
+    return factories[name](backend, faults=faults)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -125,7 +125,8 @@ class SimBackend:
         return float(self.pose()[2])
 
     def body_acceleration(self) -> tuple[float, float]:
-        return tuple(self.sim.robots[self.robot].accel)  # type: ignore[return-value]
+        accel = self.sim.robots[self.robot].accel
+        return float(accel[0]), float(accel[1])
 
     def yaw_rate(self) -> float:
         return float(self.sim.robots[self.robot].velocity[1])

@@ -148,7 +148,7 @@ class LMS2xxEmulator(Device):
         """Ranges [m] of the current variant, counter-clockwise from the scanner's right."""
         res = self.resolution / 100.0
         start = 0.0 if self.angle == 180 else 40.0
-        n = int(round(self.angle / res)) + 1
+        n = round(self.angle / res) + 1
         angles = np.radians(start - 90.0 + res * np.arange(n))  # laser_link, x forward
         scan = self._scan
         if scan is None:
@@ -177,7 +177,7 @@ class LMS2xxEmulator(Device):
     def stream(self, now: float) -> None:
         if self.mode != 0x24:
             return
-        n = int(round(self.angle * 100 / self.resolution)) + 1
+        n = round(self.angle * 100 / self.resolution) + 1
         interlace = {100: 1, 50: 2, 25: 4}[self.resolution]
         period = max(interlace / 75.0, 10.0 * (2 * n + 10) / self.baudrate)
         while self._next_scan <= now:

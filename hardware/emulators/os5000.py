@@ -28,7 +28,7 @@ class Os5000Emulator(Device):
     baudrate = 19200
 
     def __init__(self, backend: Any = None, rate: float = 20.0, heading_noise_deg: float = 0.0,
-                 faults: Faults | None = None) -> None:
+                 temperature: float = 24.5, faults: Faults | None = None) -> None:
         super().__init__(faults)
         self.backend = backend
         self.rate = rate
@@ -36,6 +36,7 @@ class Os5000Emulator(Device):
         self.format = 1
         self.declination = 0.0
         self.heading_noise_deg = heading_noise_deg
+        self.temperature = temperature
         self._command = bytearray()
         self._next = 0.0
         self.sentences_sent = 0
@@ -58,7 +59,7 @@ class Os5000Emulator(Device):
         if self.fields & 4:
             parts.append("R0.0")
         if self.fields & 8:
-            parts.append("T24.5")
+            parts.append(f"T{self.temperature:.1f}")
         if self.fields & 256:
             parts.append("Ax0.000Ay0.000Az1.000")
         return "".join(parts)

@@ -20,8 +20,17 @@ from typing import Any
 import numpy as np
 
 from hardware.emulators.core import Device, Faults
-from kit.drivers.rplidar import (FORCE_SCAN, GET_HEALTH, GET_INFO, GET_SAMPLERATE, RESET,
-                                 SCAN, SCAN_DESCRIPTOR, STOP, encode_node)
+from kit.drivers.rplidar import (
+    FORCE_SCAN,
+    GET_HEALTH,
+    GET_INFO,
+    GET_SAMPLERATE,
+    RESET,
+    SCAN,
+    SCAN_DESCRIPTOR,
+    STOP,
+    encode_node,
+)
 
 __all__ = ["RPLidarEmulator"]
 

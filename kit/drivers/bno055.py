@@ -16,13 +16,24 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from kit import msgs
 from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError
 from kit.drivers.port import Link
 from kit.geometry import wrap_angle
 
-__all__ = ["DEVICE", "MODES", "STATUS", "BNO055", "Calibration", "decode_reply",
-           "encode_read", "encode_write", "heading_to_yaw"]
+__all__ = [
+    "BNO055",
+    "DEVICE",
+    "MODES",
+    "STATUS",
+    "Calibration",
+    "decode_reply",
+    "encode_read",
+    "encode_write",
+    "heading_to_yaw",
+]
 
 DEVICE = "BNO055"
 CHIP_ID, PAGE_ID, ACC_DATA, GYR_DATA, EUL_DATA, QUA_DATA, LIA_DATA, GRV_DATA = (
@@ -267,8 +278,8 @@ class BNO055:
         t = stamp if stamp is not None else msgs.Time.from_sec(self.link.clock())
         return msgs.Imu(
             header=msgs.Header(t, self.frame_id), orientation=orientation,
-            orientation_covariance=(0.0025, 0, 0, 0, 0.0025, 0, 0, 0, 0.0025),
+            orientation_covariance=np.diag([0.0025] * 3).ravel(),
             angular_velocity=msgs.Vector3(*gyro),
-            angular_velocity_covariance=(2e-5, 0, 0, 0, 2e-5, 0, 0, 0, 2e-5),
+            angular_velocity_covariance=np.diag([2e-5] * 3).ravel(),
             linear_acceleration=msgs.Vector3(*accel),
-            linear_acceleration_covariance=(0.01, 0, 0, 0, 0.01, 0, 0, 0, 0.01))
+            linear_acceleration_covariance=np.diag([0.01] * 3).ravel())

@@ -141,7 +141,7 @@ class ODrive:
                     self.rejected += 1  # a corrupted reply, or a debug print of the firmware
                     continue
                 if len(lines) == count:
-                    self._partial = b"\r\n".join(complete[i + 1:] + [self._partial])
+                    self._partial = b"\r\n".join([*complete[i + 1:], self._partial])
                     return lines
             if len(self._partial) > 1024:
                 self._partial = b""
@@ -165,7 +165,7 @@ class ODrive:
             raise ProtocolError(DEVICE, f"r {path}: not a number: {text!r}") from None
 
     def read_int(self, path: str) -> int:
-        return int(round(self.read(path)))
+        return round(self.read(path))
 
     def write(self, path: str, value: float | int | bool) -> None:
         text = str(int(value)) if isinstance(value, (bool, int)) else repr(float(value))

@@ -281,7 +281,10 @@ class RPLidar:
         while True:
             while self._nodes:
                 node = self._nodes.pop(0)
-                if node.start:
+                # a start flag begins a turn only where the head has come round (a flag
+                # flipped by line noise in mid-turn does not cut the turn in two)
+                if node.start and (not self._turn or (node.angle_deg < 45.0 and max(
+                        n.angle_deg for n in self._turn[-8:]) > 315.0)):
                     turn, self._turn = self._turn, [node]
                     started, self._turn_started = self._turn_started, link.clock()
                     if turn and turn[0].start:
