@@ -2,7 +2,7 @@
 
 Outputs come back from untrusted code, so they travel as JSON with a few tagged forms —
 never pickle, which would run code in the grader when loaded. Only plain data comes back:
-numbers, strings, tuples, lists, string-keyed dicts, numeric numpy arrays and the kit's
+numbers, strings, bytes, tuples, lists, string-keyed dicts, numeric numpy arrays and the kit's
 message classes (rebuilt from their ROS type name, nothing else).
 """
 
@@ -37,6 +37,10 @@ def encode(value: Any, depth: int = 0) -> Any:
         raise EncodeError("value is nested too deeply")
     if value is None or isinstance(value, (bool, str)):
         return value
+    if isinstance(value, (bytes, bytearray)):
+        if len(value) > MAX_ELEMENTS:
+            raise EncodeError(f"{len(value)} bytes are too many to grade")
+        return {"__bytes__": bytes(value).hex()}
     if isinstance(value, int):
         return {"__int__": str(value)} if abs(value) > 2**53 else value
     if isinstance(value, float):
@@ -81,6 +85,8 @@ def decode(data: Any, depth: int = 0) -> Any:
     try:
         if "__int__" in data:
             return int(data["__int__"])
+        if "__bytes__" in data:
+            return bytes.fromhex(data["__bytes__"])
         if "__float__" in data:
             text = data["__float__"]
             if text not in ("nan", "inf", "-inf"):

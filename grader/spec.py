@@ -21,7 +21,7 @@ import numpy as np
 
 __all__ = ["Case", "Diagnostic", "Exercise", "LabSpec", "course_seed", "lab_names", "load_lab"]
 
-LABS = ("lab01", "lab02", "lab04", "lab05")
+LABS = ("lab01", "lab02", "lab03", "lab04", "lab05")
 
 
 @dataclass(frozen=True)

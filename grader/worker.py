@@ -53,6 +53,21 @@ def _blocked(qualified: str) -> Any:
 def block_references(names: list[str]) -> None:
     """Replace the reference functions with ones that refuse, and refuse to reload their
     modules (a reload would bring the originals back)."""
+    # import the blocked modules' packages first (and the emulators, which are built on
+    # the drivers), so that the kit's own modules bind the real functions; only names
+    # looked up afterwards — the student's — get the refusing ones
+    import pkgutil
+
+    packages = {q.partition(":")[0].rpartition(".")[0] for q in names}
+    packages = {p for p in packages if "." in p}  # sub-packages such as kit.drivers
+    if "kit.drivers" in packages:
+        packages.add("hardware.emulators")
+    for package in sorted(packages - {""}):
+        root = importlib.import_module(package)
+        for info in pkgutil.walk_packages(root.__path__, package + "."):
+            if info.name.endswith("__main__"):
+                continue
+            importlib.import_module(info.name)
     modules = set()
     for qualified in names:
         module_name, _, attr = qualified.partition(":")

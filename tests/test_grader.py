@@ -194,7 +194,7 @@ def test_every_exercise_reference_passes_its_own_cases_and_no_diagnostic_equals_
     """A diagnostic that gave the right answer would call correct work a mistake."""
     from grader.compare import matches
 
-    for lab in ("lab01", "lab02"):
+    for lab in ("lab01", "lab02", "lab03"):
         for ex in load_lab(lab).exercises:
             for case in (*ex.public, *ex.hidden_cases(1)):
                 expected = ex.reference(*case.args, **case.kwargs)
@@ -231,7 +231,8 @@ def mutate(src_notebook: Path, dest: Path, old: str, new: str) -> Path:
 def test_solutions_score_full_and_untouched_labs_score_zero(tmp_path):
     results = {}
     for lab, name in (("lab01", "01-kinematics.ipynb"), ("lab02", "02-odometry.ipynb"),
-                      ("lab04", "04-motor-control.ipynb"), ("lab05", "05-fusion.ipynb")):
+                      ("lab03", "03-drivers.ipynb"), ("lab04", "04-motor-control.ipynb"),
+                      ("lab05", "05-fusion.ipynb")):
         spec = load_lab(lab)
         graded = grade_submissions([SOLUTIONS / name, LABS / name], spec, jobs=2)
         results[lab] = graded
@@ -256,6 +257,20 @@ def test_solutions_score_full_and_untouched_labs_score_zero(tmp_path):
 
 BUGS = [
     # (lab, notebook, exercise losing its points, old text, new text, words of the hint)
+    ("lab03", "03-drivers.ipynb", "velocity_frame", 'to_bytes(2, "big")',
+     'to_bytes(2, "little")', "high byte first"),
+    ("lab03", "03-drivers.ipynb", "velocity_frame",
+     "units = round(rpm * 400 / 60 * 2**17 / 20000)", "units = round(rpm * 43.7)",
+     "43.7 is rounded"),
+    ("lab03", "03-drivers.ipynb", "parse_compass",
+     "yaw = math.remainder(math.pi / 2 - math.radians(heading), 2 * math.pi)",
+     "yaw = math.remainder(math.radians(heading), 2 * math.pi)", "yaw = π/2 − heading"),
+    ("lab03", "03-drivers.ipynb", "decode_nodes", "            i += 1\n",
+     "            i += 5\n", "move on by ONE byte"),
+    ("lab03", "03-drivers.ipynb", "axis_state_name", "    if version >= (0, 5, 2):",
+     "    if False:", "erratum 9"),
+    ("lab03", "03-drivers.ipynb", "uiabot_motor_speeds", "* np.array([1.0, -1.0])",
+     "* np.array([1.0, 1.0])", "mounted mirrored"),
     ("lab01", "01-kinematics.ipynb", "forward_kinematics",
      "return np.asarray(wheel_speeds, dtype=float) @ J.T",
      "return np.asarray(wheel_speeds, dtype=float)[..., ::-1] @ J.T", "swapped wheels"),
@@ -371,3 +386,16 @@ def test_lists_get_a_specific_message_and_metadata_names_the_student(tmp_path):
     nb.metadata["kit"] = {"student": "grace"}
     nbformat.write(nb, path)
     assert grade_notebook(path, load_lab("lab01")).student == "grace"
+
+
+
+def test_a_crc_bug_also_costs_the_frames_built_with_it(tmp_path):
+    """Lab 03's frame exercise calls the student's own CRC: one bug, two exercises, and
+    the CRC's hint names the mistake."""
+    spec = load_lab("lab03")
+    path = mutate(SOLUTIONS / "03-drivers.ipynb", tmp_path / "crc.ipynb",
+                  "crc = 0\n    for byte", "crc = 0xFFFF\n    for byte")
+    result = grade_notebook(path, spec)
+    lost = {k for k, v in result.exercises.items() if v.points < v.max_points}
+    assert lost == {"lab03.crc16_xmodem", "lab03.velocity_frame"}
+    assert "starts from 0x0000" in result.exercises["lab03.crc16_xmodem"].reason

@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hardware.emulators.__main__ import DEVICES, make_device
-from kit.drivers import ChecksumError, DeviceError, DeviceTimeout, ProtocolError
 from kit.drivers import bno055, lms2xx, odrive, rplidar
 from kit.drivers.checksums import crc16_sick
+from kit.drivers.errors import ChecksumError, DeviceError, DeviceTimeout, ProtocolError
 
 SICK_TELEGRAMS = [bytes.fromhex(t) for t in (  # protocols.md §3.8
     "02 80 03 00 A0 00 10 16 0A",

@@ -57,6 +57,10 @@ def axis_state_name(value: int, firmware: str | tuple[int, ...] = "0.5.6") -> st
     >>> axis_state_name(8), axis_state_name(5, "0.5.1"), axis_state_name(11, "0.5.6")
     ('CLOSED_LOOP_CONTROL', 'SENSORLESS_CONTROL', 'HOMING')
     """
+    return _state_name(value, firmware)
+
+
+def _state_name(value: int, firmware: str | tuple[int, ...]) -> str:
     table = AXIS_STATES[_numbering(firmware)]
     if value not in table:
         raise ValueError(f"{value} is not an axis state in firmware {firmware}")
@@ -202,13 +206,13 @@ class ODrive:
         return self.read_int(f"axis{axis}.current_state")
 
     def axis_state_name(self, axis: int) -> str:
-        return axis_state_name(self.axis_state(axis), self.firmware)
+        return _state_name(self.axis_state(axis), self.firmware)
 
     def axis_error(self, axis: int) -> int:
         return self.read_int(f"axis{axis}.error")
 
     def request_state(self, axis: int, state: int) -> None:
-        axis_state_name(state, self.firmware)  # refuses a state this firmware does not have
+        _state_name(state, self.firmware)  # refuses a state this firmware does not have
         self.write(f"axis{axis}.requested_state", state)
 
     def wait_for_state(self, axis: int, state: int, timeout: float, poll: float = 0.1) -> None:
@@ -222,12 +226,12 @@ class ODrive:
             error = self.axis_error(axis)
             if error:
                 raise DeviceError(DEVICE, f"axis{axis}: error 0x{error:X} while waiting for "
-                                          f"{axis_state_name(state, self.firmware)}", error)
+                                          f"{_state_name(state, self.firmware)}", error)
             if clock() >= deadline:
                 raise DeviceTimeout(DEVICE, f"axis{axis}: still "
-                                            f"{axis_state_name(current, self.firmware)} after "
+                                            f"{_state_name(current, self.firmware)} after "
                                             f"{timeout:g} s, waiting for "
-                                            f"{axis_state_name(state, self.firmware)}")
+                                            f"{_state_name(state, self.firmware)}")
             self.link.sleep(poll)
 
     def clear_errors(self) -> None:
