@@ -54,6 +54,7 @@ release: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_core.py
 	$(BIN)/python benchmarks/bench_grader.py
+	$(BIN)/python benchmarks/bench_drivers.py
 	$(BIN)/python -m sim bench
 
 clean:

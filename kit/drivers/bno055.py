@@ -122,7 +122,9 @@ class Calibration:
 
     @classmethod
     def from_byte(cls, b: int) -> Calibration:
-        """>>> Calibration.from_byte(0x36)
+        """CALIB_STAT's byte: bits 7–6 system, 5–4 gyroscope, 3–2 accelerometer, 1–0 magnetometer.
+
+        >>> Calibration.from_byte(0x36)
         Calibration(system=0, gyroscope=3, accelerometer=1, magnetometer=2)
         """
         return cls((b >> 6) & 3, (b >> 4) & 3, (b >> 2) & 3, b & 3)
