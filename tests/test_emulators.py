@@ -654,3 +654,25 @@ def test_the_real_drivers_drive_the_simulated_igv_and_read_its_compass_and_scann
     left, right = scan.ranges[-1], scan.ranges[0]
     assert 0.3 < left < 1.5 and 0.3 < right < 1.5 and left + right == pytest.approx(1.5, abs=0.2)
     base.stop()
+
+
+def test_compass_formats_and_commands_round_trip_through_the_emulator():
+    assert os5000.parse_sentence("$HCHDT,212.4,T*2C").heading_deg == 212.4  # spec vector
+    clock = Clock()
+    device = Os5000Emulator()
+    compass = os5000.Os5000(LogicalPort(device, clock), clock=clock)
+    compass.set_declination(12.5)
+    compass.set_format(4)
+    reading = compass.read()
+    while reading.heading_deg != 102.5:  # sentences already on the way in format 1
+        reading = compass.read()
+    assert math.isnan(reading.pitch_deg) and reading.yaw == pytest.approx(math.radians(-12.5))
+    compass.set_format(2)
+    while not compass.read().temperature_c:
+        pass
+    assert (device.format, device.declination) == (2, 12.5)
+    compass.set_fields(7)
+    compass.set_format(1)
+    clock.sleep(0.2)
+    compass.port.reset_input_buffer()
+    assert compass.read().temperature_c is None  # the T field is off

@@ -53,6 +53,8 @@ class Os5000Emulator(Device):
         h = self.heading(now)
         if self.format == 4:
             return f"HCHDT,{h:.1f},T"
+        if self.format == 2:
+            return f"OHPR,{h:.1f},0.0,0.0,{self.temperature:.1f}"
         parts = [f"C{h:.1f}"]
         if self.fields & 2:
             parts.append("P0.0")
@@ -93,7 +95,7 @@ class Os5000Emulator(Device):
             self._next = now
         elif letter == "X" and number is not None:
             self.fields = number
-        elif letter == "*" and number in (1, 4):
+        elif letter == "*" and number in (1, 2, 4):
             self.format = number
         elif letter == "Q" and number is not None:
             self.declination = number / 10.0

@@ -65,8 +65,10 @@ def parse_sentence(line: str) -> CompassReading:
     if nmea_checksum(body) != given:
         raise ChecksumError(DEVICE, f"checksum {given} does not match "
                                     f"{nmea_checksum(body)} for {body[:60]!r}")
+    if body.startswith(("HCHDT,", "OHPR,")):
+        return _comma_sentence(body)
     if not body.startswith("C"):
-        raise ProtocolError(DEVICE, f"not a $C sentence (format 1): {body[:20]!r}")
+        raise ProtocolError(DEVICE, f"not a compass sentence: {body[:20]!r}")
     values: dict[str, float] = {}
     for tag, number in TOKEN.findall(body):
         values[tag] = float(number)
@@ -79,6 +81,28 @@ def parse_sentence(line: str) -> CompassReading:
         raise ProtocolError(DEVICE, f"angles out of range: {body[:60]!r}")
     return CompassReading(heading, pitch, roll, values.pop("T", None), heading_to_yaw(heading),
                           values)
+
+
+def _comma_sentence(body: str) -> CompassReading:
+    """Format 4 (``HCHDT,<heading>,T``: heading only; pitch and roll NaN, not provided) and
+    format 2 (``OHPR,<heading>,<pitch>,<roll>[,<temperature>…]`` with the default fields)."""
+    fields = body.split(",")
+    try:
+        if fields[0] == "HCHDT":
+            if len(fields) != 3 or fields[2] != "T":
+                raise ValueError
+            heading, pitch, roll, temp = float(fields[1]), math.nan, math.nan, None
+        else:
+            values = [float(v) for v in fields[1:]]
+            if len(values) < 3:
+                raise ValueError
+            heading, pitch, roll = values[:3]
+            temp = values[3] if len(values) > 3 else None
+    except ValueError:
+        raise ProtocolError(DEVICE, f"malformed sentence: {body[:60]!r}") from None
+    if not 0.0 <= heading <= 360.0:
+        raise ProtocolError(DEVICE, f"heading out of range: {body[:60]!r}")
+    return CompassReading(heading, pitch, roll, temp, heading_to_yaw(heading))
 
 
 class LineSplitter:
@@ -126,7 +150,29 @@ class Os5000:
 
     def set_rate(self, hz: int) -> None:
         """``<ESC>R<n><CR>``: sentences per second (0 stops the stream)."""
-        self.port.write(b"\x1bR" + str(int(hz)).encode() + b"\r")
+        self._command("R", hz)
+
+    def _command(self, letter: str, value: int | None = None) -> None:
+        text = "\x1b" + letter + ("" if value is None else f"{int(value)}\r")
+        try:
+            self.port.write(text.encode("ascii"))
+        except OSError as exc:
+            raise ProtocolError(DEVICE, f"<ESC>{letter}: the port failed ({exc})") from None
+
+    def set_fields(self, mask: int = 15) -> None:
+        """``<ESC>X<mask>``: 1 heading, 2 pitch, 4 roll, 8 temperature, 64 magnetometer,
+        256 accelerometer … (15 = heading, pitch, roll, temperature)."""
+        self._command("X", mask)
+
+    def set_format(self, fmt: int = 1) -> None:
+        """``<ESC>*<n>``: 1 ``$C…`` (the kit's), 2 ``$OHPR,…``, 4 ``$HCHDT,…``."""
+        if fmt not in (1, 2, 4, 8, 16):
+            raise ValueError(f"OS5000 formats are 1, 2, 4, 8, 16; got {fmt}")
+        self._command("*", fmt)
+
+    def set_declination(self, degrees: float) -> None:
+        """``<ESC>Q<n>``: magnetic declination, sent × 10."""
+        self._command("Q", round(degrees * 10))
 
     def read(self) -> CompassReading:
         deadline = self.clock() + self.timeout
