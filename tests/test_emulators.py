@@ -676,3 +676,36 @@ def test_compass_formats_and_commands_round_trip_through_the_emulator():
     clock.sleep(0.2)
     compass.port.reset_input_buffer()
     assert compass.read().temperature_c is None  # the T field is off
+
+
+def test_rplidar_express_scan_capsules_round_trip_and_stream():
+    distances = [float(4 * k + 150) for k in range(32)]
+    offsets = [(k % 64) / 8.0 for k in range(32)]
+    raw = rplidar.encode_capsule(False, 123.5, distances, offsets)
+    assert len(raw) == 84 and raw[0] >> 4 == 0xA and raw[1] >> 4 == 0x5
+    checksum = 0
+    for b in raw[2:]:
+        checksum ^= b
+    assert checksum == (raw[0] & 0x0F) | (raw[1] & 0x0F) << 4  # §6.6's rule
+    capsule = rplidar.decode_capsule(raw)
+    assert capsule.angle_deg == 123.5 and list(capsule.distances_mm) == distances
+    assert list(capsule.offsets_deg) == offsets
+    bad = bytearray(raw)
+    bad[40] ^= 0x04
+    assert rplidar.decode_capsule(bytes(bad)) is None
+
+    clock = Clock()
+    device = RPLidarEmulator()
+    port = LogicalPort(device, clock)
+    port.write(h("A5 82 05 00 00 00 00 00 22"))  # the spec's legacy express request
+    assert port.read(7) == h("A5 5A 54 00 00 40 82")
+    lidar = rplidar.RPLidar(LogicalPort(RPLidarEmulator(), clock), clock=clock,
+                            sleep=clock.sleep)
+    lidar.start_express()
+    t0 = clock.now
+    turns = [lidar.read_revolution() for _ in range(5)]
+    assert (clock.now - t0) / 5 == pytest.approx(1 / 5.5, rel=0.05)
+    assert all(abs(len(t) - 4000 / 5.5) < 3 for t in turns)  # 4000 samples/s
+    scan = lidar.read_scan()
+    assert scan.ranges[180] == pytest.approx(4.0, abs=0.01)  # the room's wall ahead
+    lidar.stop()

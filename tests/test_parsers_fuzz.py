@@ -187,3 +187,10 @@ def test_a_corrupted_compass_sentence_costs_only_itself(data):
     # every other sentence comes through; the victim is refused — or, when the corruption
     # cannot be seen (a NUL byte inserted leaves the XOR as it was), read right
     assert got in (others, expected)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.binary(max_size=600))
+def test_express_capsules_from_random_bytes_never_hang(data):
+    for node in rplidar.CapsuleParser().feed(data):
+        assert 0 <= node.angle_deg < 360 and node.distance_mm >= 0

@@ -21,6 +21,8 @@ import numpy as np
 
 from hardware.emulators.core import Device, Faults
 from kit.drivers.rplidar import (
+    EXPRESS_DESCRIPTOR,
+    EXPRESS_SCAN,
     FORCE_SCAN,
     GET_HEALTH,
     GET_INFO,
@@ -29,6 +31,7 @@ from kit.drivers.rplidar import (
     SCAN,
     SCAN_DESCRIPTOR,
     STOP,
+    encode_capsule,
     encode_node,
 )
 
@@ -45,10 +48,19 @@ class RPLidarEmulator(Device):
 
     def __init__(self, backend: Any = None, samples_per_second: float = 2000.0,
                  turns_per_second: float = 5.5, health: int = 0,
+                 express_samples_per_second: float = 4000.0,
                  faults: Faults | None = None) -> None:
         super().__init__(faults)
         self.backend = backend
         self.sample_time = 1.0 / samples_per_second
+        # legacy capsules take 84 bytes per 32 samples: at 115200 baud the link carries at most
+        # about 4400 samples/s, so the emulator's express mode gives 4000 (the paper's 8000
+        # samples/s, erratum 11, would need a denser capsule format)
+        self.express_sample_time = 1.0 / express_samples_per_second
+        self.express = False
+        self._capsule_angle = 0.0
+        self._first_capsule = True
+        self._last_scan: Any = None
         self.turns_per_second = turns_per_second
         self.health = health
         self.scanning = False
@@ -78,8 +90,15 @@ class RPLidarEmulator(Device):
                 chk = 0
                 for b in buf[:size - 1]:
                     chk ^= b
+                ok = chk == buf[size - 1]
                 del buf[:size]
-                continue  # EXPRESS_SCAN, SET_MOTOR_PWM, ACC_BOARD_FLAG: not on this A1 model
+                if ok and cmd == EXPRESS_SCAN and self.health != 2:
+                    self.send(EXPRESS_DESCRIPTOR, now)
+                    self.scanning, self.express = True, True
+                    self._pending = []
+                    self._first_capsule = True
+                    self._next_node = self._line_free
+                continue  # SET_MOTOR_PWM, ACC_BOARD_FLAG: the A1 ignores them
             del buf[:2]
             self._command(cmd, now)
 
@@ -104,7 +123,7 @@ class RPLidarEmulator(Device):
             if self.health == 2 and cmd == SCAN:
                 return  # a device in error does not scan
             self.send(SCAN_DESCRIPTOR, now)
-            self.scanning = True
+            self.scanning, self.express = True, False
             self._pending = []
             self._next_node = self._line_free
 
@@ -114,7 +133,7 @@ class RPLidarEmulator(Device):
         return None
 
     def _stop(self) -> None:
-        self.scanning = False
+        self.scanning = self.express = False
         self._pending = []
         self._out.clear()  # what was queued but not yet sent never goes out
 
@@ -133,6 +152,7 @@ class RPLidarEmulator(Device):
             nodes.append(encode_node(k == 0, 47 if ok else 0, float(cw[i]),
                                      r * 1000.0 if ok else 0.0))
         self._turn_from_sim = nodes
+        self._last_scan = message
 
     def _room_turn(self) -> list[bytes]:
         n = round(1.0 / (self.sample_time * self.turns_per_second))
@@ -142,8 +162,41 @@ class RPLidarEmulator(Device):
         r = np.minimum(4.0 / np.maximum(c, 1e-12), 4.0 / np.maximum(s, 1e-12))
         return [encode_node(k == 0, 47, float(cw[k]), float(r[k]) * 1000.0) for k in range(n)]
 
+    def _ranges_mm(self, cw_deg: np.ndarray) -> np.ndarray:
+        """What the head sees at clockwise angles (the latest simulated turn, or the room)."""
+        scan = self._last_scan
+        if scan is None:
+            a = np.radians(-cw_deg)
+            c, s = np.abs(np.cos(a)), np.abs(np.sin(a))
+            return np.minimum(4.0 / np.maximum(c, 1e-12), 4.0 / np.maximum(s, 1e-12)) * 1000
+        ranges = np.asarray(scan.ranges, dtype=np.float64)
+        ccw = np.radians(-cw_deg)
+        index = np.rint((np.remainder(ccw - scan.angle_min, 2 * math.pi)) /
+                        scan.angle_increment).astype(int) % len(ranges)
+        r = ranges[index]
+        return np.where(np.isfinite(r) & (r > 0), r * 1000.0, 0.0)
+
+    def _stream_capsules(self, now: float) -> None:
+        period = 32 * self.express_sample_time
+        step = 360.0 * self.turns_per_second * period
+        while self._next_node <= now:
+            if self.backend is not None:
+                self.backend.advance(self._next_node)
+            angles = (self._capsule_angle + step * np.arange(32) / 32.0) % 360.0
+            capsule = encode_capsule(self._first_capsule, self._capsule_angle,
+                                     self._ranges_mm(angles).tolist())
+            self.send(capsule, self._next_node, reply=False)
+            self._first_capsule = False
+            self._capsule_angle = (self._capsule_angle + step) % 360.0
+            self._next_node += period
+            if now - self._next_node > 1.0:
+                self._next_node = now
+
     def stream(self, now: float) -> None:
         if not self.scanning:
+            return
+        if self.express:
+            self._stream_capsules(now)
             return
         while self._next_node <= now:
             if not self._pending:

@@ -23,8 +23,9 @@ from kit.drivers.checksums import xor_checksum
 from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError
 from kit.drivers.port import Link
 
-__all__ = ["DEVICE", "Node", "NodeParser", "RPLidar", "decode_node", "encode_node",
-           "encode_request", "parse_descriptor", "revolution_to_scan", "split_revolutions"]
+__all__ = ["DEVICE", "Capsule", "CapsuleParser", "Node", "NodeParser", "RPLidar",
+           "decode_capsule", "decode_node", "encode_capsule", "encode_node", "encode_request",
+           "parse_descriptor", "revolution_to_scan", "split_revolutions"]
 
 DEVICE = "RPLidar"
 STOP, RESET, SCAN, FORCE_SCAN, GET_INFO, GET_HEALTH, GET_SAMPLERATE = (
@@ -265,6 +266,22 @@ class RPLidar:
         self._turn, self._nodes = [], []
         self.scanning = True
 
+    def start_express(self) -> None:
+        """Like :meth:`start`, in express mode (legacy capsules, ``A5 82 05 00 00 00 00 00``):
+        more samples per second; the kit's A1 normally uses the standard scan."""
+        self._motor(True)
+        self._command(STOP, "stop", None)
+        self.link.sleep(0.002)
+        self.link.clear("stop")
+        self.link.write(encode_request(EXPRESS_SCAN, bytes(5)), "express scan")
+        descriptor = self._read_exact(7, "express scan")
+        if descriptor != EXPRESS_DESCRIPTOR:
+            raise ProtocolError(DEVICE, f"express scan: descriptor {descriptor.hex(' ')} is not "
+                                        f"{EXPRESS_DESCRIPTOR.hex(' ')}")
+        self.parser = CapsuleParser()  # type: ignore[assignment]
+        self._turn, self._nodes = [], []
+        self.scanning = True
+
     def stop(self) -> None:
         self._command(STOP, "stop", None)
         self.link.sleep(0.002)
@@ -306,3 +323,105 @@ class RPLidar:
 
     def close(self) -> None:
         self.link.close()
+
+
+# ------------------------------------------------------------------ express scan (§6.6)
+
+EXPRESS_SCAN = 0x82
+EXPRESS_DESCRIPTOR = bytes.fromhex("A55A5400004082")
+CAPSULE = 84
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """One checked express-scan capsule: its start angle and 32 (distance, offset) samples."""
+
+    start: bool
+    angle_deg: float
+    distances_mm: tuple[float, ...]
+    offsets_deg: tuple[float, ...]
+    """each sample's angle correction (subtracted from the interpolated angle)."""
+
+
+def decode_capsule(raw: bytes) -> Capsule | None:
+    """An 84-byte capsule, or ``None`` when its sync nibbles or checksum do not match."""
+    if len(raw) != CAPSULE or raw[0] >> 4 != 0xA or raw[1] >> 4 != 0x5:
+        return None
+    checksum = 0
+    for b in raw[2:]:
+        checksum ^= b
+    if checksum != ((raw[0] & 0x0F) | ((raw[1] & 0x0F) << 4)):
+        return None
+    word = raw[2] | raw[3] << 8
+    distances, offsets = [], []
+    for c in range(16):
+        base = 4 + 5 * c
+        d1 = raw[base] | raw[base + 1] << 8
+        d2 = raw[base + 2] | raw[base + 3] << 8
+        off = raw[base + 4]
+        for d, low in ((d1, off & 0x0F), (d2, off >> 4)):
+            distances.append((d & 0xFFFC) / 4.0)
+            offset = ((d & 0x3) << 4) | low
+            offsets.append(offset / 8.0)
+    return Capsule(bool(word & 0x8000), (word & 0x7FFF) / 64.0, tuple(distances),
+                   tuple(offsets))
+
+
+def encode_capsule(start: bool, angle_deg: float, distances_mm: list[float],
+                   offsets_deg: list[float] | None = None) -> bytes:
+    """The device side of :func:`decode_capsule` (emulators and tests)."""
+    if len(distances_mm) != 32:
+        raise ValueError("a capsule carries 32 samples")
+    offsets = [round(o * 8) & 0x3F for o in (offsets_deg or [0.0] * 32)]
+    body = bytearray(((round(angle_deg * 64) % (360 * 64)) | (0x8000 if start else 0))
+                     .to_bytes(2, "little"))
+    for c in range(16):
+        words = []
+        for k in (2 * c, 2 * c + 1):
+            q2 = min(max(round(distances_mm[k] * 4), 0), 0xFFFF) & 0xFFFC
+            words.append(q2 | (offsets[k] >> 4))
+        body += words[0].to_bytes(2, "little") + words[1].to_bytes(2, "little")
+        body.append((offsets[2 * c] & 0x0F) | ((offsets[2 * c + 1] & 0x0F) << 4))
+    checksum = 0
+    for b in body:
+        checksum ^= b
+    return bytes([0xA0 | (checksum & 0x0F), 0x50 | (checksum >> 4)]) + bytes(body)
+
+
+class CapsuleParser:
+    """Bytes → nodes of the express scan. A capsule's samples are placed between its start
+    angle and the next capsule's, so nodes come out one capsule late; a capsule that fails
+    its sync or checksum is skipped byte by byte (and the one before it loses its end angle,
+    so its samples are dropped rather than guessed)."""
+
+    def __init__(self) -> None:
+        self._buffer = bytearray()
+        self._previous: Capsule | None = None
+        self._last_angle = 360.0  # so that the first node starts a turn
+        self.skipped = 0
+
+    def feed(self, data: bytes) -> list[Node]:
+        buf = self._buffer
+        buf += data
+        nodes: list[Node] = []
+        i = 0
+        while len(buf) - i >= CAPSULE:
+            capsule = decode_capsule(bytes(buf[i:i + CAPSULE]))
+            if capsule is None:
+                i += 1
+                self.skipped += 1
+                self._previous = None
+                continue
+            i += CAPSULE
+            prev, self._previous = self._previous, capsule
+            if prev is None or capsule.start:  # the start bit marks a (re)started scan
+                continue
+            span = (capsule.angle_deg - prev.angle_deg) % 360.0
+            for k in range(32):
+                angle = (prev.angle_deg + span * k / 32.0 - prev.offsets_deg[k]) % 360.0
+                # a new turn where the angle wraps round, as the SDK marks it
+                wrapped = self._last_angle - angle > 180.0
+                self._last_angle = angle
+                nodes.append(Node(wrapped, 0, angle, prev.distances_mm[k]))
+        del buf[:i]
+        return nodes
