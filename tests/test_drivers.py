@@ -223,8 +223,10 @@ def test_compass_heading_becomes_rep103_yaw_once():
 def test_bad_sentences_raise_the_documented_errors():
     with pytest.raises(ChecksumError, match="OS5000: checksum 3D"):
         os5000.parse_sentence("$C320.5P0.2R-18.3T19.0*3D")
-    with pytest.raises(ProtocolError, match=r"not a \$C sentence"):
-        os5000.parse_sentence("$HCHDT,212.4,T*2C")
+    with pytest.raises(ProtocolError, match="not a compass sentence"):
+        os5000.parse_sentence("$GPGGA,1,2*55")
+    with pytest.raises(ProtocolError, match="malformed sentence"):
+        os5000.parse_sentence("$HCHDT,212.4*54")
     with pytest.raises(ProtocolError, match="not a sentence"):
         os5000.parse_sentence("CMD:C")
 
