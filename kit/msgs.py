@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -68,6 +68,10 @@ def _frozen_array(value: ArrayLike, dtype: Any, shape: tuple[int, ...] | None,
     return a
 
 
+_M = TypeVar("_M", bound="Message")
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
+
+
 class Message:
     """Base of all kit messages: ROS type name, array-aware equality."""
 
@@ -91,6 +95,26 @@ class Message:
         return True
 
     __hash__ = None  # type: ignore[assignment]
+
+    @classmethod
+    def trusted(cls: type[_M], *values: Any) -> _M:
+        """Build a message from field values in declaration order, skipping the checks and
+        normalisation of ``__init__``.
+
+        Only for producers that already hold normal values — read-only arrays of the right
+        dtype and shape, float32-rounded floats, nanoseconds in range — at sensor rates (the
+        simulator). Anything else must use the constructor.
+        """
+        try:
+            names = _FIELD_NAMES[cls]
+        except KeyError:
+            fields = dataclasses.fields(cls)  # type: ignore[arg-type]
+            names = _FIELD_NAMES[cls] = tuple(f.name for f in fields)
+        if len(values) != len(names):
+            raise TypeError(f"{cls.__name__}.trusted takes {len(names)} values; got {len(values)}")
+        message = object.__new__(cls)
+        message.__dict__.update(zip(names, values, strict=True))
+        return message
 
 
 class _Normalised(Message):

@@ -67,7 +67,7 @@ class Imu:
 
     @staticmethod
     def _cov(z: float, other: float) -> FloatArray:
-        c = np.diag([other, other, z]).ravel()
+        c = np.diag([other, other, z]).ravel().copy()
         c.flags.writeable = False
         return c
 
@@ -105,21 +105,21 @@ class Imu:
         mx, my = self.mount
         ax = accel_body[0] - yaw_accel * my - yaw_rate * yaw_rate * mx
         ay = accel_body[1] + yaw_accel * mx - yaw_rate * yaw_rate * my
+        # built with Message.trusted: every value here is already a float or a read-only
+        # array of the right shape, and this runs at the IMU's rate for every robot
+        vector, trusted = msgs.Vector3.trusted, msgs.Imu.trusted
         if self.accel_std:
             sd = self.accel_std
-            accel = msgs.Vector3(ax + sd * n_ax, ay + sd * n_ay, GRAVITY + sd * n_az)
+            accel = vector(ax + sd * n_ax, ay + sd * n_ay, GRAVITY + sd * n_az)
         else:
-            accel = msgs.Vector3()
+            accel = vector(0.0, 0.0, 0.0)
         half = 0.5 * measured_yaw
-        return msgs.Imu(
-            header=msgs.Header(msgs.Time.from_sec(time), self.frame_id),
-            orientation=msgs.Quaternion(0.0, 0.0, math.sin(half), math.cos(half)),
-            orientation_covariance=self.cov_orientation,
-            angular_velocity=msgs.Vector3(0.0, 0.0, rate),
-            angular_velocity_covariance=self.cov_gyro,
-            linear_acceleration=accel,
-            linear_acceleration_covariance=self.cov_accel,
-        )
+        nanoseconds = round(time * 1e9)
+        stamp = msgs.Time.trusted(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
+        return trusted(msgs.Header.trusted(stamp, self.frame_id),
+                       msgs.Quaternion.trusted(0.0, 0.0, math.sin(half), math.cos(half)),
+                       self.cov_orientation, vector(0.0, 0.0, float(rate)), self.cov_gyro,
+                       accel, self.cov_accel)
 
 
 class Lidar:
@@ -169,6 +169,11 @@ class Lidar:
         self._people: list[FloatArray] = []
         self.last_ranges: FloatArray = np.full(self.beams, np.inf)
         """float64 ranges of the last scan, before noise (for tests against geometry)."""
+        self._near: tuple[int, FloatArray, FloatArray] | None = None
+        # the scan's float32 fields, rounded once (LaserScan stores them as float32)
+        self._fields32 = tuple(float(np.float32(v)) for v in (
+            self.angle_min, self.angle_min + self.increment * (self.beams - 1), self.increment,
+            self.time_increment, 1.0 / self.rate, self.range_min, self.range_max))
 
     def beam_times(self) -> FloatArray:
         return np.asarray(self.scan_start + self.time_increment * np.arange(self.beams),
@@ -193,7 +198,7 @@ class Lidar:
         origins, angles, step = beam_geometry(
             np.array(self._times), np.array(self._poses), self.scan_start,
             self.time_increment, self.beams, self.mount, self.angle_min, self.increment)
-        near = segments_near(segments, origins[0], self.range_max + 1.0)
+        near = self._segments_near(segments, origins[0])
         # each beam sees the people where they were during its physics step
         people = np.stack(self._people) if self._people and self._people[0].size else \
             np.zeros((1, 0, 3))
@@ -211,17 +216,20 @@ class Lidar:
         ranges32 = measured.astype(np.float32)
         intensities = np.where(np.isfinite(ranges32), np.float32(47.0), np.float32(0.0))
         ranges32.flags.writeable = intensities.flags.writeable = False  # handed over
-        scan = msgs.LaserScan(
-            header=msgs.Header(msgs.Time.from_sec(self.scan_start), self.frame_id),
-            angle_min=self.angle_min,
-            angle_max=self.angle_min + self.increment * (self.beams - 1),
-            angle_increment=self.increment,
-            time_increment=self.time_increment,
-            scan_time=1.0 / self.rate,
-            range_min=self.range_min,
-            range_max=self.range_max,
-            ranges=ranges32,
-            intensities=intensities,
-        )
+        # every field is already normal (float32-rounded numbers, read-only float32 arrays)
+        scan = msgs.LaserScan.trusted(
+            msgs.Header.trusted(msgs.Time.from_sec(self.scan_start), self.frame_id),
+            *self._fields32, ranges32, intensities)
         self.scan_start += 1.0 / self.rate
         return scan
+
+    def _segments_near(self, segments: FloatArray, origin: FloatArray) -> FloatArray:
+        """The walls within reach, culled again only when the sensor has moved more than a
+        metre from where they were last culled (the cull keeps a metre to spare, so the
+        beams meet the same walls)."""
+        cached = self._near
+        if cached is None or cached[0] != id(segments) or \
+                abs(origin[0] - cached[1][0]) > 1.0 or abs(origin[1] - cached[1][1]) > 1.0:
+            near = segments_near(segments, origin, self.range_max + 2.0)
+            self._near = cached = (id(segments), origin.copy(), near)
+        return cached[2]

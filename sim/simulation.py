@@ -121,6 +121,7 @@ class _Robot:
     yaw_accel: float = 0.0
     next_joint_state: float = 0.02  # 50 Hz, on the multiples of 20 ms
     controllers: list[Any] = field(default_factory=list)
+    on_oil: list[bool] = field(default_factory=lambda: [False, False])
 
     @property
     def topics(self) -> tuple[str, str, str]:
@@ -391,7 +392,9 @@ class Simulation:
             if oily:
                 y = -r.half_track if k == 0 else r.half_track
                 slippery = self.world.in_oil(px - s * y, py + c * y)
-                r.joints[k].max_force = oil_force if slippery else r.traction
+                if slippery != r.on_oil[k]:  # pymunk's setters are dear: only on a change
+                    r.on_oil[k] = slippery
+                    r.joints[k].max_force = oil_force if slippery else r.traction
 
     @staticmethod
     def _motor_step(motor: Any, controller: Any, target: float, speed: float,
@@ -501,8 +504,9 @@ class Simulation:
         position = np.floor(r.wheel_angle * per_rad) / per_rad
         velocity = r.wheel_speed.copy()
         position.flags.writeable = velocity.flags.writeable = False  # handed over, not copied
-        return msgs.JointState(msgs.Header(self.clock(), ""), _WHEEL_JOINTS, position,
-                               velocity, _NO_EFFORT)
+        # fresh read-only float64 arrays and a tuple of names: nothing for __init__ to check
+        return msgs.JointState.trusted(msgs.Header.trusted(self.clock(), ""), _WHEEL_JOINTS,
+                                       position, velocity, _NO_EFFORT)
 
     def ground_truth(self, robot: int = 0) -> GroundTruth:
         r = self.robots[robot]

@@ -153,3 +153,20 @@ def test_reads_a_real_turtlebot4_bag_into_kit_messages(shared_data):
     np.testing.assert_allclose(yaw, [1.7055, -1.0183], atol=1e-4)
     xy = np.array([[o.pose.pose.position.x, o.pose.pose.position.y] for o in odoms])
     assert np.linalg.norm(np.diff(xy, axis=0), axis=1).sum() == pytest.approx(8.35, abs=0.01)
+
+
+def test_trusted_construction_equals_the_checked_one():
+    """The simulator builds its high-rate messages with Message.trusted: same messages."""
+    from sim import Simulation
+
+    sim = Simulation("square", "uiabot", seed=3)
+    out = sim.run(0.5, msgs.Twist(linear=msgs.Vector3(0.3, 0.0, 0.0)))
+    kinds = set()
+    for _, m in out:
+        rebuilt = type(m)(**{f.name: getattr(m, f.name) for f in dataclasses.fields(m)})
+        assert rebuilt == m
+        assert repr(rebuilt) == repr(m)
+        kinds.add(type(m).__name__)
+    assert kinds == {"LaserScan", "Imu", "JointState"}
+    with pytest.raises(TypeError, match="takes 3 values"):
+        msgs.Vector3.trusted(1.0, 2.0)
