@@ -69,7 +69,19 @@ def _frozen_array(value: ArrayLike, dtype: Any, shape: tuple[int, ...] | None,
 
 
 _M = TypeVar("_M", bound="Message")
-_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
+_TRUSTED: dict[type, Any] = {}
+
+
+def _trusted_builder(cls: type) -> Any:
+    """A function taking the fields of ``cls`` in order and filling a new instance's
+    ``__dict__`` directly (generated once per class, as dataclasses generate ``__init__``)."""
+    names = [f.name for f in dataclasses.fields(cls)]
+    args = ", ".join(f"v{i}" for i in range(len(names)))
+    body = "; ".join(f"d[{name!r}] = v{i}" for i, name in enumerate(names))
+    source = f"def build({args}):\n    m = new(cls)\n    d = m.__dict__\n    {body}\n    return m\n"
+    namespace: dict[str, Any] = {"new": object.__new__, "cls": cls}
+    exec(source, namespace)  # noqa: S102 - code built from the dataclass's own field names
+    return namespace["build"]
 
 
 class Message:
@@ -106,15 +118,15 @@ class Message:
         simulator). Anything else must use the constructor.
         """
         try:
-            names = _FIELD_NAMES[cls]
+            build = _TRUSTED[cls]
         except KeyError:
-            fields = dataclasses.fields(cls)  # type: ignore[arg-type]
-            names = _FIELD_NAMES[cls] = tuple(f.name for f in fields)
-        if len(values) != len(names):
-            raise TypeError(f"{cls.__name__}.trusted takes {len(names)} values; got {len(values)}")
-        message = object.__new__(cls)
-        message.__dict__.update(zip(names, values, strict=True))
-        return message
+            build = _TRUSTED[cls] = _trusted_builder(cls)
+        try:
+            return build(*values)  # type: ignore[no-any-return]
+        except TypeError:
+            n = len(dataclasses.fields(cls))  # type: ignore[arg-type]
+            raise TypeError(f"{cls.__name__}.trusted takes {n} values; got {len(values)}") \
+                from None
 
 
 class _Normalised(Message):

@@ -91,8 +91,12 @@ class World:
         return (float(allpts[:, 0].min()), float(allpts[:, 1].min()),
                 float(allpts[:, 0].max()), float(allpts[:, 1].max()))
 
+    @cached_property
+    def _oil_rects(self) -> tuple[tuple[float, float, float, float], ...]:
+        return tuple((float(a), float(b), float(c), float(d)) for a, b, c, d in self.oil)
+
     def in_oil(self, x: float, y: float) -> bool:
-        for x0, y0, x1, y1 in self.oil:
+        for x0, y0, x1, y1 in self._oil_rects:  # plain floats: called per wheel per step
             if x0 <= x <= x1 and y0 <= y <= y1:
                 return True
         return False
