@@ -645,7 +645,8 @@ def test_the_real_drivers_drive_the_simulated_igv_and_read_its_compass_and_scann
     assert np.hypot(*(pose[:2] - ref[:2])) / ref[0] < 0.01
     compass = os5000.Os5000(rig.ports["os5000"], clock=rig.clock)
     truth = rig.sim.ground_truth().pose[2]
-    assert compass.read().yaw == pytest.approx(truth, abs=0.01)  # heading → yaw, once
+    # heading → yaw, once; the simulated compass's noise is 0.5° (0.0087 rad): 4σ
+    assert compass.read().yaw == pytest.approx(truth, abs=0.035)
     scanner = lms2xx.LMS2xx(rig.ports["lms2xx"], **rig.driver_options())
     scanner.connect(38400, 180, 1.0)
     scanner.start()

@@ -15,7 +15,6 @@ the simulated robot.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -123,15 +122,3 @@ class SimBackend:
 
     def yaw(self) -> float:
         return float(self.pose()[2])
-
-    def body_acceleration(self) -> tuple[float, float]:
-        accel = self.sim.robots[self.robot].accel
-        return float(accel[0]), float(accel[1])
-
-    def yaw_rate(self) -> float:
-        return float(self.sim.robots[self.robot].velocity[1])
-
-
-def wrap_degrees(angle: float) -> float:
-    """[0, 360)."""
-    return angle % 360.0 if math.isfinite(angle) else angle

@@ -1,10 +1,11 @@
 """OceanServer OS5000-S compass (``protocols.md`` §2): the device side.
 
 Streams ``$C…*cc`` sentences at the programmed rate (20 Hz by default) with the fields the
-``<ESC>X`` mask selects, in format 1 or 4 (``<ESC>*``); obeys ``<ESC>R`` (0 stops the
+``<ESC>X`` mask selects, in format 1, 2 or 4 (``<ESC>*``); obeys ``<ESC>R`` (0 stops the
 stream), answers each command with a short text line a driver must skip, and ignores other
 ESC commands. The heading is the backend body's (clockwise from north: ``90° − yaw``) plus
-the configured declination.
+the configured declination; backed by the simulator, it is the simulated compass's reading
+(the robot's IMU model, with its noise and drift), never the ground truth.
 """
 
 from __future__ import annotations
@@ -40,12 +41,22 @@ class Os5000Emulator(Device):
         self._command = bytearray()
         self._next = 0.0
         self.sentences_sent = 0
+        self._imu: Any = None
+        if backend is not None and hasattr(backend, "subscribe"):
+            backend.subscribe("imu", self._on_imu)
+
+    def _on_imu(self, message: Any) -> None:
+        self._imu = message  # the simulated compass's reading (its noise, bias and drift)
 
     def heading(self, now: float) -> float:
         yaw = 0.0
         if self.backend is not None:
             self.backend.advance(now)
-            yaw = float(self.backend.yaw())
+            if self._imu is not None:
+                q = self._imu.orientation
+                yaw = 2.0 * math.atan2(q.z, q.w)
+            else:
+                yaw = float(self.backend.yaw())
         noise = self.rng.gauss(0.0, self.heading_noise_deg) if self.heading_noise_deg else 0.0
         return (90.0 - math.degrees(yaw) + self.declination + noise) % 360.0
 
