@@ -19,6 +19,7 @@ from typing import Any
 
 from kit.drivers.checksums import crc16_xmodem
 from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError
+from kit.drivers.port import Link
 
 __all__ = ["DEVICE", "DpralteDrive", "Frame", "FrameParser", "encode_read", "encode_write",
            "int32_words", "rpm_to_units", "units_to_rpm"]
@@ -192,11 +193,7 @@ class DpralteDrive:
     def __init__(self, port: Any, address: int, velocity_offset: int = 0,
                  timeout: float = 0.25, counts_per_rev: int = 400,
                  clock: Any = time.monotonic) -> None:
-        if isinstance(port, str):
-            import serial
-
-            port = serial.serial_for_url(port, baudrate=115200, timeout=0.01)
-        self.port = port
+        self.link = Link(DEVICE, port, 115200, 0.01, clock)
         self.address = address
         self.velocity_offset = velocity_offset
         self.timeout = timeout
@@ -208,18 +205,11 @@ class DpralteDrive:
     def transact(self, request: bytes, what: str) -> Frame:
         """Send one request and wait for its reply (sequence echoed, status checked)."""
         sequence = (request[2] >> 2) & 0x0F
-        try:
-            self.port.reset_input_buffer()
-            self.port.write(request)
-        except OSError as exc:
-            raise ProtocolError(DEVICE, f"{what}: the port failed ({exc})") from None
+        self.link.clear(what)
+        self.link.write(request, what)
         deadline = self.clock() + self.timeout
         while self.clock() < deadline:
-            try:
-                chunk = self.port.read(self.port.in_waiting or 1)
-            except OSError as exc:
-                raise ProtocolError(DEVICE, f"{what}: the port failed ({exc})") from None
-            for frame in self.parser.feed(chunk):
+            for frame in self.parser.feed(self.link.read_some(what)):
                 if not frame.is_reply or frame.sequence != sequence:
                     continue  # our own echo on a shared bus, or a stale reply
                 if frame.status != 1:

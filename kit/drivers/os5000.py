@@ -17,6 +17,7 @@ from typing import Any
 
 from kit.drivers.checksums import nmea_checksum
 from kit.drivers.errors import ChecksumError, DeviceTimeout, ProtocolError
+from kit.drivers.port import Link
 from kit.geometry import wrap_angle
 
 __all__ = ["DEVICE", "CompassReading", "LineSplitter", "Os5000", "heading_to_yaw",
@@ -137,11 +138,7 @@ class Os5000:
     """
 
     def __init__(self, port: Any, timeout: float = 0.5, clock: Any = time.monotonic) -> None:
-        if isinstance(port, str):
-            import serial
-
-            port = serial.serial_for_url(port, baudrate=19200, timeout=0.01)
-        self.port = port
+        self.link = Link(DEVICE, port, 19200, 0.01, clock)
         self.timeout = timeout
         self.clock = clock
         self.lines = LineSplitter()
@@ -154,10 +151,7 @@ class Os5000:
 
     def _command(self, letter: str, value: int | None = None) -> None:
         text = "\x1b" + letter + ("" if value is None else f"{int(value)}\r")
-        try:
-            self.port.write(text.encode("ascii"))
-        except OSError as exc:
-            raise ProtocolError(DEVICE, f"<ESC>{letter}: the port failed ({exc})") from None
+        self.link.write(text.encode("ascii"), f"<ESC>{letter}")
 
     def set_fields(self, mask: int = 15) -> None:
         """``<ESC>X<mask>``: 1 heading, 2 pitch, 4 roll, 8 temperature, 64 magnetometer,
@@ -185,8 +179,4 @@ class Os5000:
                     self.rejected += 1
             if self.clock() >= deadline:
                 raise DeviceTimeout(DEVICE, f"no valid sentence within {self.timeout:g} s")
-            try:
-                chunk = self.port.read(self.port.in_waiting or 1)
-            except OSError as exc:
-                raise ProtocolError(DEVICE, f"the port failed ({exc})") from None
-            self._pending.extend(self.lines.feed(chunk))
+            self._pending.extend(self.lines.feed(self.link.read_some("read")))

@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from kit.drivers.errors import ProtocolError
+from kit.drivers.errors import DeviceTimeout, ProtocolError
 
 __all__ = ["Link"]
 
@@ -60,6 +60,22 @@ class Link:
         except (OSError, serial.SerialException, TypeError) as exc:
             # pyserial raises TypeError from a closed pty's read on some versions
             raise self._failed(what, exc) from None
+
+    def read_exact(self, n: int, timeout: float, what: str) -> bytes:
+        """``n`` bytes, or :class:`DeviceTimeout` after ``timeout`` seconds on the clock."""
+        deadline = self.clock() + timeout
+        data = bytearray()
+        while len(data) < n:
+            if self.clock() >= deadline:
+                raise DeviceTimeout(self.device, f"{what}: {len(data)} of {n} bytes within "
+                                                 f"{timeout:g} s")
+            import serial
+
+            try:
+                data += self.port.read(n - len(data))
+            except (OSError, serial.SerialException, TypeError) as exc:
+                raise self._failed(what, exc) from None
+        return bytes(data)
 
     def clear(self, what: str) -> None:
         import serial

@@ -197,19 +197,7 @@ class RPLidar:
             pass  # a pseudo-terminal cannot set DTR (protocols.md §0)
 
     def _read_exact(self, n: int, what: str) -> bytes:
-        link = self.link
-        deadline = link.clock() + self.timeout
-        data = bytearray()
-        while len(data) < n:
-            if link.clock() >= deadline:
-                raise DeviceTimeout(DEVICE, f"{what}: {len(data)} of {n} bytes within "
-                                            f"{self.timeout:g} s")
-            try:
-                chunk = link.port.read(n - len(data))
-            except (OSError, TypeError) as exc:
-                raise ProtocolError(DEVICE, f"{what}: the port failed ({exc})") from None
-            data += chunk
-        return bytes(data)
+        return self.link.read_exact(n, self.timeout, what)
 
     def _command(self, command: int, what: str, expect_type: int | None,
                  payload: bytes | None = None) -> bytes:
