@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from hardware.emulators.core import Device, Faults
-from kit.drivers.checksums import crc16_sick
 from kit.drivers.lms2xx import BAUD_COMMANDS, TelegramParser, encode_telegram
 
 __all__ = ["LMS2xxEmulator"]
@@ -170,9 +169,8 @@ class LMS2xxEmulator(Device):
         raw[raw >= 0x1FF7] = 0x1FFF
         count = len(raw) | ((1 << 14) if self.unit_mm else 0)
         payload = b"\xb0" + count.to_bytes(2, "little") + raw.tobytes() + bytes([STATUS_OK])
-        body = bytes([0x02, 0x80]) + len(payload).to_bytes(2, "little") + payload
         self.scans_sent += 1
-        return body + crc16_sick(body).to_bytes(2, "little")
+        return encode_telegram(payload, 0x80)
 
     def stream(self, now: float) -> None:
         if self.mode != 0x24:

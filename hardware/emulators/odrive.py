@@ -16,6 +16,7 @@ from typing import Any
 
 from hardware.emulators.backends import IdealWheels
 from hardware.emulators.core import Device, Faults
+from kit.drivers.checksums import odrive_checksum
 
 __all__ = ["ODriveEmulator"]
 
@@ -210,10 +211,7 @@ class ODriveEmulator(Device):
                 expected = int(given.strip())
             except ValueError:
                 return
-            c = 0
-            for ch in text:
-                c ^= ord(ch)
-            if c != expected:
+            if odrive_checksum(text) != expected:
                 return  # the firmware ignores a line whose checksum does not match
             line, checksummed = text, True
         line = line.strip()
@@ -222,10 +220,7 @@ class ODriveEmulator(Device):
         self._update(now)
         for reply in self._execute(line, now):
             if checksummed:
-                c = 0
-                for ch in reply:
-                    c ^= ord(ch)
-                reply = f"{reply}*{c}"
+                reply = f"{reply}*{odrive_checksum(reply)}"
             self.send((reply + "\r\n").encode("ascii"), now)
 
     def error_reply(self, reply: bytes) -> bytes | None:

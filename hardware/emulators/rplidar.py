@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from hardware.emulators.core import Device, Faults
+from kit.drivers.checksums import xor_checksum
 from kit.drivers.rplidar import (
     EXPRESS_DESCRIPTOR,
     EXPRESS_SCAN,
@@ -87,10 +88,7 @@ class RPLidarEmulator(Device):
                 if len(buf) < 3 or len(buf) < 4 + buf[2]:
                     return
                 size = 4 + buf[2]
-                chk = 0
-                for b in buf[:size - 1]:
-                    chk ^= b
-                ok = chk == buf[size - 1]
+                ok = xor_checksum(bytes(buf[:size - 1])) == buf[size - 1]
                 del buf[:size]
                 if ok and cmd == EXPRESS_SCAN and self.health != 2:
                     self.send(EXPRESS_DESCRIPTOR, now)

@@ -335,10 +335,7 @@ def decode_capsule(raw: bytes) -> Capsule | None:
     """An 84-byte capsule, or ``None`` when its sync nibbles or checksum do not match."""
     if len(raw) != CAPSULE or raw[0] >> 4 != 0xA or raw[1] >> 4 != 0x5:
         return None
-    checksum = 0
-    for b in raw[2:]:
-        checksum ^= b
-    if checksum != ((raw[0] & 0x0F) | ((raw[1] & 0x0F) << 4)):
+    if xor_checksum(raw[2:]) != ((raw[0] & 0x0F) | ((raw[1] & 0x0F) << 4)):
         return None
     word = raw[2] | raw[3] << 8
     distances, offsets = [], []
@@ -370,9 +367,7 @@ def encode_capsule(start: bool, angle_deg: float, distances_mm: list[float],
             words.append(q2 | (offsets[k] >> 4))
         body += words[0].to_bytes(2, "little") + words[1].to_bytes(2, "little")
         body.append((offsets[2 * c] & 0x0F) | ((offsets[2 * c + 1] & 0x0F) << 4))
-    checksum = 0
-    for b in body:
-        checksum ^= b
+    checksum = xor_checksum(bytes(body))
     return bytes([0xA0 | (checksum & 0x0F), 0x50 | (checksum >> 4)]) + bytes(body)
 
 
