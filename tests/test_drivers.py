@@ -229,6 +229,10 @@ def test_bad_sentences_raise_the_documented_errors():
         os5000.parse_sentence("$HCHDT,212.4*54")
     with pytest.raises(ProtocolError, match="not a sentence"):
         os5000.parse_sentence("CMD:C")
+    # a NUL byte leaves the XOR as it was: the characters themselves give it away
+    body = "C10.0P0.0R0.0T20.0"
+    with pytest.raises(ProtocolError, match="not a sentence"):
+        os5000.parse_sentence(f"$C1\x000.0P0.0R0.0T20.0*{cs.nmea_checksum(body)}")
 
 
 @settings(max_examples=300, deadline=None)

@@ -184,8 +184,8 @@ def test_a_corrupted_compass_sentence_costs_only_itself(data):
             pass
     expected = [10.0, 20.5, 30.0, 40.5, 50.0]
     others = [h for i, h in enumerate(expected) if i != victim]
-    # every other sentence comes through; the victim is refused — or, when the corruption
-    # cannot be seen (a NUL byte inserted leaves the XOR as it was), read right
+    # every other sentence comes through; the victim is refused — or read right, when the
+    # corruption left it whole (a second "$" inserted before it)
     assert got in (others, expected)
 
 

@@ -25,7 +25,9 @@ __all__ = ["DEVICE", "CompassReading", "LineSplitter", "Os5000", "heading_to_yaw
 
 DEVICE = "OS5000"
 TOKEN = re.compile(r"(Mx|My|Mz|Ax|Ay|Az|[CPRTD])(-?\d+(?:\.\d+)?)")
-SENTENCE = re.compile(r"^\$([^*$]*)\*([0-9A-Fa-f]{2})$")
+# a sentence's body holds only tags, numbers and commas: anything else (a NUL byte inserted
+# by line noise leaves the XOR unchanged) means a corrupted line
+SENTENCE = re.compile(r"^\$([A-Za-z0-9.,-]*)\*([0-9A-Fa-f]{2})$")
 
 
 def heading_to_yaw(heading_deg: float) -> float:
