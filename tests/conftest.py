@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -15,3 +17,25 @@ def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
         pytest.skip("../shared/data is not beside this checkout")
     return SHARED_DATA
+
+
+def _corrupt(frame: bytes, data: Any) -> bytes:
+    """One byte of ``frame`` flipped, dropped or inserted, as hypothesis's ``data`` draws."""
+    from hypothesis import strategies as st
+
+    out = bytearray(frame)
+    kind = data.draw(st.sampled_from(["flip", "drop", "insert"]))
+    pos = data.draw(st.integers(0, len(out) - 1))
+    if kind == "flip":
+        out[pos] ^= 1 << data.draw(st.integers(0, 7))
+    elif kind == "drop":
+        del out[pos]
+    else:
+        out.insert(pos, data.draw(st.integers(0, 255)))
+    return bytes(out)
+
+
+@pytest.fixture(scope="session")
+def corrupt() -> Callable[[bytes, Any], bytes]:
+    """The parsers' fuzz tests share one way of corrupting a frame."""
+    return _corrupt

@@ -102,19 +102,11 @@ def test_random_bytes_give_only_checked_frames_and_never_hang(data):
 @settings(max_examples=300, deadline=None)
 @given(st.lists(st.sampled_from(range(len(ALL_FRAMES))), min_size=2, max_size=8),
        st.data())
-def test_corruption_loses_no_other_frame(indices, data):
+def test_corruption_loses_no_other_frame(corrupt, indices, data):
     frames = [ALL_FRAMES[i] for i in indices]
     victim = data.draw(st.integers(0, len(frames) - 1))
     stream = bytearray()
-    corrupted = bytearray(frames[victim])
-    kind = data.draw(st.sampled_from(["flip", "drop", "insert"]))
-    pos = data.draw(st.integers(0, len(corrupted) - 1))
-    if kind == "flip":
-        corrupted[pos] ^= 1 << data.draw(st.integers(0, 7))
-    elif kind == "drop":
-        del corrupted[pos]
-    else:
-        corrupted.insert(pos, data.draw(st.integers(0, 255)))
+    corrupted = corrupt(frames[victim], data)
     for i, f in enumerate(frames):
         stream += corrupted if i == victim else f
     chunks = data.draw(st.integers(1, 7))

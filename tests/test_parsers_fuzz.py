@@ -20,19 +20,6 @@ SICK_TELEGRAMS = [bytes.fromhex(t) for t in (  # protocols.md §3.8
 )] + [lms2xx.encode_telegram(b"\xb0\x05\x00" + bytes(10) + b"\x10", 0x80)]
 
 
-def _corrupt(frame: bytes, data: st.DataObject) -> bytes:
-    out = bytearray(frame)
-    kind = data.draw(st.sampled_from(["flip", "drop", "insert"]))
-    pos = data.draw(st.integers(0, len(out) - 1))
-    if kind == "flip":
-        out[pos] ^= 1 << data.draw(st.integers(0, 7))
-    elif kind == "drop":
-        del out[pos]
-    else:
-        out.insert(pos, data.draw(st.integers(0, 255)))
-    return bytes(out)
-
-
 @settings(max_examples=300, deadline=None)
 @given(st.binary(max_size=600))
 def test_sick_parser_takes_only_checked_telegrams_from_random_bytes(data):
@@ -46,10 +33,10 @@ def test_sick_parser_takes_only_checked_telegrams_from_random_bytes(data):
 @settings(max_examples=300, deadline=None)
 @given(st.lists(st.sampled_from(range(len(SICK_TELEGRAMS))), min_size=2, max_size=8),
        st.data())
-def test_sick_corruption_loses_no_other_telegram(indices, data):
+def test_sick_corruption_loses_no_other_telegram(corrupt, indices, data):
     frames = [SICK_TELEGRAMS[i] for i in indices]
     victim = data.draw(st.integers(0, len(frames) - 1))
-    stream = b"".join(b"\x06" + (_corrupt(f, data) if i == victim else f)
+    stream = b"".join(b"\x06" + (corrupt(f, data) if i == victim else f)
                       for i, f in enumerate(frames))
     # the line goes on: a corrupted length may hold back later telegrams until up to
     # 818 bytes have come (SICK's framing has no header check), never lose them
@@ -154,12 +141,13 @@ def test_rplidar_nodes_from_random_bytes_pass_their_check_bits(data):
 
 @settings(max_examples=300, deadline=None)
 @given(st.integers(0, 10_000), st.data())
-def test_rplidar_resynchronises_within_a_few_nodes_of_a_corruption(seed, data):
+def test_rplidar_resynchronises_within_a_few_nodes_of_a_corruption(corrupt, seed,
+                                                                    data):
     """Nodes carry no checksum, only two check bits, so a few nodes after a corrupted byte
     may be misread; from then on every node comes through, in order."""
     raw, nodes = _nodes_stream(seed, 40)
     k = data.draw(st.integers(0, 30))
-    stream = b"".join(raw[:k]) + _corrupt(raw[k], data) + b"".join(raw[k + 1:])
+    stream = b"".join(raw[:k]) + corrupt(raw[k], data) + b"".join(raw[k + 1:])
     got = rplidar.NodeParser().feed(stream)
     assert got[:k] == nodes[:k]
     tail = nodes[k + 9:]
@@ -168,13 +156,13 @@ def test_rplidar_resynchronises_within_a_few_nodes_of_a_corruption(seed, data):
 
 @settings(max_examples=200, deadline=None)
 @given(st.data())
-def test_a_corrupted_compass_sentence_costs_only_itself(data):
+def test_a_corrupted_compass_sentence_costs_only_itself(corrupt, data):
     from kit.drivers.checksums import nmea_checksum
 
     lines = [f"C{h:.1f}P0.0R0.0T20.0" for h in (10.0, 20.5, 30.0, 40.5, 50.0)]
     sentences = [f"${b}*{nmea_checksum(b)}\r\n".encode() for b in lines]
     victim = data.draw(st.integers(0, 4))
-    sentences[victim] = _corrupt(sentences[victim][:-2], data) + b"\r\n"
+    sentences[victim] = corrupt(sentences[victim][:-2], data) + b"\r\n"
     splitter = os5000.LineSplitter()
     got = []
     for line in splitter.feed(b"".join(sentences)):
