@@ -8,11 +8,10 @@ than the devices send them.
 
 from __future__ import annotations
 
-import statistics
 import time
-from collections.abc import Callable
 
 import numpy as np
+from bench_core import best_rate  # the same median-of-repeats rate (scripts run from here)
 
 from hardware.emulators import Clock, LogicalPort
 from hardware.emulators.lms2xx import LMS2xxEmulator
@@ -22,15 +21,6 @@ from kit.drivers import lms2xx, odrive, rplidar
 
 A1_SAMPLES_PER_S = 2000.0
 LMS291_SCANS_PER_S = 75.0  # the mirror's rate, reached at 500 kbaud with 181 values
-
-
-def best_rate(fn: Callable[[], int], repeats: int = 5) -> float:
-    rates = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        n = fn()
-        rates.append(n / (time.perf_counter() - start))
-    return statistics.median(rates)
 
 
 def rplidar_stream(turns: int) -> bytes:
