@@ -20,9 +20,22 @@ from typing import Any
 
 import numpy as np
 
-from kit import msgs
+from kit import geometry, msgs
 
-__all__ = ["IdealWheels", "SimBackend"]
+__all__ = ["IdealWheels", "SimBackend", "imu_yaw", "room_ranges"]
+
+
+def room_ranges(angles: np.ndarray) -> np.ndarray:
+    """Ranges [m] from the centre of an empty 8 m × 8 m room to its walls, at ``angles``
+    [rad] counter-clockwise from x: what an emulated lidar sees with no simulator behind it."""
+    c, s = np.abs(np.cos(angles)), np.abs(np.sin(angles))
+    return np.minimum(4.0 / np.maximum(c, 1e-12), 4.0 / np.maximum(s, 1e-12))
+
+
+def imu_yaw(message: msgs.Imu) -> float:
+    """REP-103 yaw of a simulated IMU reading (what an emulated IMU or compass reports)."""
+    q = message.orientation
+    return float(geometry.quaternion_to_yaw((q.x, q.y, q.z, q.w)))
 
 
 class IdealWheels:

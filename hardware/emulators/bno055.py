@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from hardware.emulators.backends import IdealWheels
+from hardware.emulators.backends import IdealWheels, imu_yaw
 from hardware.emulators.core import Device, Faults
 
 __all__ = ["BNO055Emulator"]
@@ -83,8 +83,7 @@ class BNO055Emulator(Device):
         units = regs[UNIT_SEL]
         fusion = 8 <= mode <= 12
         if self._imu is not None:
-            q = self._imu.orientation
-            yaw = 2.0 * math.atan2(q.z, q.w)
+            yaw = imu_yaw(self._imu)
             rate = self._imu.angular_velocity.z
             ax, ay = self._imu.linear_acceleration.x, self._imu.linear_acceleration.y
         else:

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from hardware.emulators.backends import room_ranges
 from hardware.emulators.core import Device, Faults
 from kit.drivers.lms2xx import BAUD_COMMANDS, TelegramParser, encode_telegram
 
@@ -151,9 +152,7 @@ class LMS2xxEmulator(Device):
         angles = np.radians(start - 90.0 + res * np.arange(n))  # laser_link, x forward
         scan = self._scan
         if scan is None:
-            c, s = np.abs(np.cos(angles)), np.abs(np.sin(angles))
-            with np.errstate(divide="ignore"):
-                return np.minimum(4.0 / np.where(c > 0, c, 1e-12), 4.0 / np.where(s > 0, s, 1e-12))
+            return room_ranges(angles)
         beams = np.asarray(scan.ranges, dtype=np.float64)
         index = np.rint((angles - scan.angle_min) / scan.angle_increment).astype(int)
         inside = (index >= 0) & (index < len(beams))

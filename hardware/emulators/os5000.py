@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from hardware.emulators.backends import imu_yaw
 from hardware.emulators.core import Device, Faults
 from kit.drivers.checksums import nmea_checksum
 
@@ -53,8 +54,7 @@ class Os5000Emulator(Device):
         if self.backend is not None:
             self.backend.advance(now)
             if self._imu is not None:
-                q = self._imu.orientation
-                yaw = 2.0 * math.atan2(q.z, q.w)
+                yaw = imu_yaw(self._imu)
             else:
                 yaw = float(self.backend.yaw())
         noise = self.rng.gauss(0.0, self.heading_noise_deg) if self.heading_noise_deg else 0.0

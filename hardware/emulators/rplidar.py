@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from hardware.emulators.backends import room_ranges
 from hardware.emulators.core import Device, Faults
 from kit.drivers.checksums import xor_checksum
 from kit.drivers.rplidar import (
@@ -155,18 +156,14 @@ class RPLidarEmulator(Device):
     def _room_turn(self) -> list[bytes]:
         n = round(1.0 / (self.sample_time * self.turns_per_second))
         cw = np.arange(n) * 360.0 / n
-        a = np.radians(-cw)
-        c, s = np.abs(np.cos(a)), np.abs(np.sin(a))
-        r = np.minimum(4.0 / np.maximum(c, 1e-12), 4.0 / np.maximum(s, 1e-12))
+        r = room_ranges(np.radians(-cw))
         return [encode_node(k == 0, 47, float(cw[k]), float(r[k]) * 1000.0) for k in range(n)]
 
     def _ranges_mm(self, cw_deg: np.ndarray) -> np.ndarray:
         """What the head sees at clockwise angles (the latest simulated turn, or the room)."""
         scan = self._last_scan
         if scan is None:
-            a = np.radians(-cw_deg)
-            c, s = np.abs(np.cos(a)), np.abs(np.sin(a))
-            return np.minimum(4.0 / np.maximum(c, 1e-12), 4.0 / np.maximum(s, 1e-12)) * 1000
+            return room_ranges(np.radians(-cw_deg)) * 1000.0
         ranges = np.asarray(scan.ranges, dtype=np.float64)
         ccw = np.radians(-cw_deg)
         index = np.rint((np.remainder(ccw - scan.angle_min, 2 * math.pi)) /
