@@ -101,28 +101,47 @@ def encode_node(start: bool, quality: int, angle_deg: float, distance_mm: float)
         distance_q2.to_bytes(2, "little")
 
 
-class NodeParser:
-    """Bytes → nodes, resynchronising by one byte over anything that is not a node."""
+class _Resynchronising:
+    """Bytes → records of ``size`` bytes with no frame around them: a window that does not
+    decode is skipped by one byte. Subclasses decode a window and turn records into nodes."""
+
+    size = 5
 
     def __init__(self) -> None:
         self._buffer = bytearray()
         self.skipped = 0
 
+    def _decode(self, raw: bytes) -> Any:
+        raise NotImplementedError
+
+    def _record(self, record: Any, nodes: list[Node]) -> None:
+        nodes.append(record)
+
+    def _skip(self) -> None:
+        self.skipped += 1
+
     def feed(self, data: bytes) -> list[Node]:
         buf = self._buffer
         buf += data
         nodes: list[Node] = []
-        i = 0
-        while len(buf) - i >= 5:
-            node = decode_node(bytes(buf[i:i + 5]))
-            if node is None:
+        i, size = 0, self.size
+        while len(buf) - i >= size:
+            record = self._decode(bytes(buf[i:i + size]))
+            if record is None:
                 i += 1
-                self.skipped += 1
+                self._skip()
                 continue
-            nodes.append(node)
-            i += 5
+            self._record(record, nodes)
+            i += size
         del buf[:i]
         return nodes
+
+
+class NodeParser(_Resynchronising):
+    """Bytes → nodes, resynchronising by one byte over anything that is not a node."""
+
+    def _decode(self, raw: bytes) -> Node | None:
+        return decode_node(raw)
 
 
 def revolution_to_scan(nodes: list[Node], stamp: msgs.Time, frame_id: str = "laser_link",
@@ -184,7 +203,7 @@ class RPLidar:
         self.timeout = timeout
         self.frame_id = frame_id
         self.beams = beams
-        self.parser = NodeParser()
+        self.parser: _Resynchronising = NodeParser()
         self.scanning = False
         self._turn: list[Node] = []
         self._nodes: list[Node] = []
@@ -266,7 +285,7 @@ class RPLidar:
         if descriptor != EXPRESS_DESCRIPTOR:
             raise ProtocolError(DEVICE, f"express scan: descriptor {descriptor.hex(' ')} is not "
                                         f"{EXPRESS_DESCRIPTOR.hex(' ')}")
-        self.parser = CapsuleParser()  # type: ignore[assignment]
+        self.parser = CapsuleParser()
         self._turn, self._nodes = [], []
         self.scanning = True
 
@@ -371,40 +390,34 @@ def encode_capsule(start: bool, angle_deg: float, distances_mm: list[float],
     return bytes([0xA0 | (checksum & 0x0F), 0x50 | (checksum >> 4)]) + bytes(body)
 
 
-class CapsuleParser:
+class CapsuleParser(_Resynchronising):
     """Bytes → nodes of the express scan. A capsule's samples are placed between its start
     angle and the next capsule's, so nodes come out one capsule late; a capsule that fails
     its sync or checksum is skipped byte by byte (and the one before it loses its end angle,
     so its samples are dropped rather than guessed)."""
 
+    size = CAPSULE
+
     def __init__(self) -> None:
-        self._buffer = bytearray()
+        super().__init__()
         self._previous: Capsule | None = None
         self._last_angle = 360.0  # so that the first node starts a turn
-        self.skipped = 0
 
-    def feed(self, data: bytes) -> list[Node]:
-        buf = self._buffer
-        buf += data
-        nodes: list[Node] = []
-        i = 0
-        while len(buf) - i >= CAPSULE:
-            capsule = decode_capsule(bytes(buf[i:i + CAPSULE]))
-            if capsule is None:
-                i += 1
-                self.skipped += 1
-                self._previous = None
-                continue
-            i += CAPSULE
-            prev, self._previous = self._previous, capsule
-            if prev is None or capsule.start:  # the start bit marks a (re)started scan
-                continue
-            span = (capsule.angle_deg - prev.angle_deg) % 360.0
-            for k in range(32):
-                angle = (prev.angle_deg + span * k / 32.0 - prev.offsets_deg[k]) % 360.0
-                # a new turn where the angle wraps round, as the SDK marks it
-                wrapped = self._last_angle - angle > 180.0
-                self._last_angle = angle
-                nodes.append(Node(wrapped, 0, angle, prev.distances_mm[k]))
-        del buf[:i]
-        return nodes
+    def _decode(self, raw: bytes) -> Capsule | None:
+        return decode_capsule(raw)
+
+    def _skip(self) -> None:
+        self.skipped += 1
+        self._previous = None
+
+    def _record(self, capsule: Capsule, nodes: list[Node]) -> None:
+        prev, self._previous = self._previous, capsule
+        if prev is None or capsule.start:  # the start bit marks a (re)started scan
+            return
+        span = (capsule.angle_deg - prev.angle_deg) % 360.0
+        for k in range(32):
+            angle = (prev.angle_deg + span * k / 32.0 - prev.offsets_deg[k]) % 360.0
+            # a new turn where the angle wraps round, as the SDK marks it
+            wrapped = self._last_angle - angle > 180.0
+            self._last_angle = angle
+            nodes.append(Node(wrapped, 0, angle, prev.distances_mm[k]))
