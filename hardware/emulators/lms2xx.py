@@ -96,7 +96,8 @@ class LMS2xxEmulator(Device):
             if not self.installation:
                 self._reply(b"\x92", now)
             else:
-                self.config[:len(p) - 1] = p[1:33]
+                data = p[1:1 + len(self.config)]
+                self.config[:len(data)] = data  # the block keeps its size
                 self.unit_mm = self.config[6] == 1
                 self._reply(b"\xf7\x01" + bytes(self.config), now + 7.0)
         elif cmd == 0x10:
