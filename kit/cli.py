@@ -3,11 +3,16 @@
     kit robots                      the robots and their key numbers
     kit robot uiabot                one robot's parameters and static transforms
     kit wheels igv 1.0 0.0          wheel speeds (and the IGV's RPM and drive units) for v, ω
+
+Subcommands of a topic (``kit slam``, ``kit plan``, ...) live beside their algorithms, in a
+module with ``register(subparsers)`` listed in :data:`COMMAND_MODULES`; each is imported only
+when the parser is built, so ``import kit`` stays light.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from collections.abc import Sequence
 
@@ -63,6 +68,10 @@ def _wheels(args: argparse.Namespace) -> int:
     return 0
 
 
+COMMAND_MODULES: tuple[str, ...] = ()
+"""Modules with a ``register(subparsers)`` that adds their subcommands."""
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="kit", description="The robotics course kit.")
     parser.add_argument("--version", action="version", version=f"kit {__version__}")
@@ -76,6 +85,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("linear", type=float)
     p.add_argument("angular", type=float)
     p.set_defaults(func=_wheels)
+    for module in COMMAND_MODULES:
+        importlib.import_module(module).register(sub)
     return parser
 
 

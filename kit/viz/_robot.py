@@ -1,35 +1,18 @@
-"""Plots for the labs. Each ``plot_*`` draws on ``ax`` (a new figure when ``None``) and returns
-the axes; nothing here calls ``plt.show()``. Importing this module imports matplotlib, which
-``import kit`` does not.
-"""
+"""The robot, its paths and its wheels: Labs 01 and 02."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.patches import Polygon
 from numpy.typing import ArrayLike
 
 from kit import geometry
+from kit.viz._base import axes as _axes
 
-__all__ = [
-    "plot_icc",
-    "plot_odometry_drift",
-    "plot_robot",
-    "plot_trajectories",
-    "plot_wheel_commands",
-]
-
-
-def _axes(ax: Axes | None, equal: bool = False) -> Axes:
-    if ax is None:
-        _, ax = plt.subplots(figsize=(6, 4.5))
-    if equal:
-        ax.set_aspect("equal", adjustable="datalim")
-    return ax
+__all__ = ["plot_icc", "plot_robot", "plot_trajectories", "plot_wheel_commands"]
 
 
 def plot_robot(pose: ArrayLike, footprint: ArrayLike, ax: Axes | None = None,
@@ -105,26 +88,6 @@ def plot_icc(linear: float, angular: float, footprint: ArrayLike, duration: floa
     ax.plot(x, y, color="tab:green", label="path")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.legend(loc="best")
-    ax.grid(True, alpha=0.3)
-    return ax
-
-
-def plot_odometry_drift(true_path: ArrayLike, estimated_paths: Mapping[str, ArrayLike],
-                        ax: Axes | None = None) -> Axes:
-    """Position error of each estimate against the true path, over distance travelled.
-
-    All paths have shape (N, 3) and share their sample times.
-    """
-    ax = _axes(ax)
-    truth = np.asarray(true_path, dtype=float)
-    travelled = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(truth[:, :2], axis=0),
-                                                                axis=1))])
-    for name, path in estimated_paths.items():
-        est = np.asarray(path, dtype=float)
-        ax.plot(travelled, np.linalg.norm(est[:, :2] - truth[:, :2], axis=1), label=name)
-    ax.set_xlabel("distance travelled [m]")
-    ax.set_ylabel("position error [m]")
     ax.legend(loc="best")
     ax.grid(True, alpha=0.3)
     return ax
