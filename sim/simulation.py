@@ -480,6 +480,13 @@ class Simulation:
         return out
 
     # ------------------------------------------------------------------ reading
+    def description(self, robot: int = 0) -> RobotDescription:
+        """The description (URDF and parameters) of robot ``robot`` as simulated."""
+        if not 0 <= robot < len(self.descriptions):
+            raise ValueError(f"robot index {robot} is out of range: this simulation has "
+                             f"{len(self.descriptions)} robot(s)")
+        return self.descriptions[robot]
+
     def clock(self) -> msgs.Time:
         return msgs.Time.from_sec(self.time)
 
