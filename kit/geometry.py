@@ -47,6 +47,9 @@ def wrap_angle(angle: ArrayLike) -> FloatArray:
     >>> float(wrap_angle(np.pi))
     -3.141592653589793
     """
+    if type(angle) is float:  # the simulator's hot path: the same arithmetic without numpy
+        w = (angle + math.pi) % (2.0 * math.pi) - math.pi
+        return np.asarray(w - 2.0 * math.pi if w >= math.pi else w)
     a = np.asarray(angle, dtype=np.float64)
     wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
     # mod can round up to exactly 2*pi for inputs just below a multiple of 2*pi
