@@ -127,7 +127,8 @@ class WheelOdometryNode(Node):
 
 class FusionNode(Node):
     """robot_localization's ``ekf_node``: fuses the messages of its input topics with a
-    :class:`kit.estimation.FusionFilter` and publishes the estimate after each fused input.
+    :class:`kit.estimation.FusionFilter` as they come and publishes the estimate at the
+    filter's ``frequency`` (as of its last fused input; :attr:`pose` is always current).
 
     Parameters
     ----------
@@ -145,6 +146,7 @@ class FusionNode(Node):
         self.inputs = dict(inputs)
         self.subscriptions = tuple(self.inputs)
         self.output = output
+        self.rate = fusion.frequency
 
     @property
     def pose(self) -> FloatArray:
@@ -165,6 +167,11 @@ class FusionNode(Node):
         else:
             raise TypeError(f"the fusion node takes Odometry and Imu on {topic}, not "
                             f"{type(message).__name__}")
+        return ()
+
+    def on_tick(self, time: float) -> Published:
+        if self.fusion.time is None:  # nothing fused yet
+            return ()
         return [(self.output, self.fusion.odometry())]
 
 
