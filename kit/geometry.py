@@ -4,9 +4,12 @@ Conventions (stated once, used everywhere in the kit):
 
 * A planar pose is ``(x, y, theta)`` in metres and radians, an array of shape ``(3,)`` or
   ``(N, 3)`` for many poses. ``theta`` is yaw, counter-clockwise about +z (REP-103).
+* Transforms are named ``T_parent_child``, and only so: ``T_odom_base`` is base_link's pose in
+  odom, the transform that maps coordinates in ``base_link`` into ``odom`` (what ROS's
+  ``odom → base_link`` TransformStamped carries, ``frame_id`` the parent). Names chain left
+  to right: ``T_odom_laser = compose(T_odom_base, T_base_laser)``.
 * ``compose(a, b)`` is the SE(2) product ``a ⊕ b``: the pose ``b``, expressed in the frame of
-  ``a``, taken into the frame ``a`` is expressed in. With ``T_odom_base = compose(T_odom_x,
-  T_x_base)`` frames chain left to right, like the ``A2B`` names of pytransform3d.
+  ``a``, taken into the frame ``a`` is expressed in.
 * ``relative(a, b) = inverse(a) ⊕ b`` is ``b ⊖ a``: where ``b`` is, seen from ``a``.
 * Quaternions are in ROS order ``(x, y, z, w)``.
 * Every angle difference goes through :func:`wrap_angle`, which maps to ``[-pi, pi)``.

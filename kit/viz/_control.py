@@ -58,5 +58,7 @@ def plot_step_response(time: ArrayLike, response: ArrayLike | Mapping[str, Array
                    label="±2 % band")
         ax.legend(loc="best")
     elif not isinstance(response, Mapping):
-        ax.get_legend().remove()
+        legend = ax.get_legend()
+        if legend is not None:  # one unnamed response needs no legend
+            legend.remove()
     return ax
