@@ -70,3 +70,22 @@ def test_exercise_numbers_in_the_text_follow_the_spec(path):
             assert functions[number - 1] == name.group(1), (number, name.group(1))
             seen.append(name.group(1))
     assert seen == functions
+
+
+@pytest.mark.parametrize("path", SOLUTION_NOTEBOOKS, ids=lambda p: p.name)
+def test_every_exercise_stub_states_what_it_takes_and_returns(path):
+    """The released stub keeps only the signature and the docstring: that docstring must say
+    what comes in (a line per argument group) and what goes out ("Returns ...")."""
+    import ast
+
+    nb = nbformat.read(path, as_version=4)
+    for cell in nb.cells:
+        if "### BEGIN SOLUTION" not in cell.source:
+            continue
+        tree = ast.parse(cell.source)
+        fn = next(n for n in tree.body if isinstance(n, ast.FunctionDef))
+        doc = ast.get_docstring(fn) or ""
+        assert "Returns" in doc or "Return" in doc, (fn.name, doc)
+        assert len(doc.splitlines()) >= 3, (fn.name, doc)
+        for arg in fn.args.args:
+            assert arg.arg in doc, (fn.name, arg.arg)
