@@ -9,12 +9,13 @@ nodes the way ROS topics do. Each physics step
    nodes subscribed to its topic, and every message those nodes publish in turn to theirs,
    in order (an odometry node's ``/odom`` reaches the fusion node in the same step);
 3. ticks every node whose own rate is due (a controller at 20 Hz, a planner at 1 Hz), the
-   first time at the run's start, and dispatches what they publish the same way;
+   first time at the run's start, and dispatches what they publish the same way (a node
+   ticks at most once per physics step: rates above ``1 / physics.dt`` are capped);
 4. records each named signal at ``record_rate``.
 
 A node is any :class:`Node`: it names the topics it subscribes to and its rate, and returns
 the ``(topic, message)`` pairs it publishes. :class:`WheelOdometryNode`,
-:class:`FusionNode` and :class:`ScriptedCommands` are the nodes of Labs 02–05; the think half
+:class:`FusionNode` and :class:`ScriptedCommands` are the nodes of Labs 04–05; the think half
 adds localisation, SLAM and planners as further nodes. A run can be repeated as an episode
 with :meth:`Runner.reset`.
 
