@@ -67,6 +67,9 @@ def cell_wrapper(tree: ast.Module) -> ast.Module:
     """``tree`` wrapped in ``try: ... except (NotImplementedError, NameError)`` handed to the
     guard, the last expression (if any) kept as the cell's displayed value."""
     body = list(tree.body)
+    future = []
+    while body and isinstance(body[0], ast.ImportFrom) and body[0].module == "__future__":
+        future.append(body.pop(0))  # must stay first in the cell, outside the try
     if not body:
         return tree
     last_expr = isinstance(body[-1], ast.Expr)
@@ -89,7 +92,7 @@ def cell_wrapper(tree: ast.Module) -> ast.Module:
                             ast.Name("NameError", ast.Load())], ast.Load()),
             name="__kit_error__", body=handler_body)],
         orelse=[], finalbody=[])
-    new_body: list[ast.stmt] = [guarded]
+    new_body: list[ast.stmt] = [*future, guarded]
     if last_expr:
         new_body.append(ast.Expr(ast.Name(_VALUE, ast.Load())))
     module = ast.Module(body=new_body, type_ignores=[])

@@ -60,6 +60,11 @@ def test_the_last_expression_is_still_displayed(shell):
     assert shell.run_cell("a + 1;", store_history=True).result is None
 
 
+def test_future_imports_stay_first(shell):
+    result = shell.run_cell("from __future__ import annotations\nx: undefined_type = 3\nx")
+    assert result.success and result.result == 3
+
+
 def test_installing_twice_keeps_one_guard(shell):
     runall.install(["forward_kinematics"], shell=shell)
     guards = [t for t in shell.ast_transformers if isinstance(t, runall.RunAllGuard)]
