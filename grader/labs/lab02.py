@@ -157,6 +157,10 @@ def _arc_midpoint(pose: Any, dr: float, dl: float, sep: float) -> Any:
     return odo.odometry_step(pose, dr, dl, sep, method="midpoint")
 
 
+def _arc_swapped(pose: Any, dr: float, dl: float, sep: float) -> Any:
+    return odo.odometry_step(pose, dl, dr, sep)
+
+
 def _arc_unwrapped(pose: Any, dr: float, dl: float, sep: float) -> Any:
     p = odo.odometry_step(pose, dr, dl, sep)
     p[2] = float(np.asarray(pose, float)[2]) + (dr - dl) / sep
@@ -185,7 +189,10 @@ exact_arc_step = Exercise(
                             "the arc's chord is shorter than Δs: multiply by "
                             "sin(Δθ/2)/(Δθ/2) (np.sinc(Δθ / (2π)))"),
                  Diagnostic("an unwrapped heading", _arc_unwrapped,
-                            "wrap θ + Δθ with wrap_angle to [-π, π)")),
+                            "wrap θ + Δθ with wrap_angle to [-π, π)"),
+                 Diagnostic("the wheels swapped", _arc_swapped,
+                            "Δθ = (Δs_r − Δs_l) / L, right minus left: a right wheel that "
+                            "rolls further turns the robot counter-clockwise")),
     blocked=_BLOCKED,
 )
 

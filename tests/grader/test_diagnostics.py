@@ -213,6 +213,7 @@ LAB02 = {
         ("Euler integration", lambda *a: _arc(*a, chord=False, mean_heading=False)),
         ("the mean heading without the chord factor", lambda *a: _arc(*a, chord=False)),
         ("an unwrapped heading", lambda *a: _arc(*a, wrap=False)),
+        ("the wheels swapped", lambda pose, dr, dl, sep: _arc(pose, dl, dr, sep)),
     ],
     "integrate_path": [
         ("the paper's pose update (erratum 2)",
