@@ -1,5 +1,6 @@
 # The kit's three commands. Each one creates .venv from pyproject.toml on first use.
 #   make lab    copy labs/ into work/ (never overwriting your files) and start JupyterLab there
+#   make reset LAB=01   a fresh copy of one lab in work/, your old file kept beside it
 #   make demo   headless see-think-act run: the Uiabot's route through the office (PNG + bag)
 #   make test   ruff, mypy, pytest (with the labs executed) and nbval on solutions/
 # Instructors: make solutions re-executes solutions/ (KIT_FAST=1) and regenerates labs/.
@@ -14,7 +15,7 @@ JUPYTER_ARGS ?=
 ROOT_FLAG := $(if $(filter 0,$(shell id -u)),--allow-root,)
 export KIT_FAST ?= 1
 
-.PHONY: lab demo test lint typecheck pytest nbval solutions release bench clean
+.PHONY: lab reset demo test lint typecheck pytest nbval solutions release bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -23,9 +24,12 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 lab: $(STAMP)
-	mkdir -p work
-	cp -r -n labs/. work/
+	$(BIN)/python -m grader.workdir copy
 	KIT_FAST= $(BIN)/jupyter lab --notebook-dir=work $(ROOT_FLAG) $(JUPYTER_ARGS)
+
+reset: $(STAMP)
+	@test -n "$(LAB)" || { echo "usage: make reset LAB=01"; exit 2; }
+	$(BIN)/python -m grader.workdir reset $(LAB)
 
 demo: $(STAMP)
 	$(BIN)/python -m sim demo --out out

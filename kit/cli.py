@@ -34,7 +34,7 @@ def _robot(args: argparse.Namespace) -> int:
     r = robots.load(args.name)
     print(f"{r.name}: {r.description}")
     print(f"  {'source':20s}{r.source}")
-    for key in ("wheel_radius", "wheel_separation", "half_track", "gear_ratio",
+    for key in ("wheel_radius", "wheel_separation", "gear_ratio",
                 "encoder_resolution", "counter_bits", "metres_per_tick", "max_wheel_speed",
                 "max_linear_velocity", "max_angular_velocity", "mass"):
         print(f"  {key:20s}{getattr(r, key):g}")
@@ -60,10 +60,10 @@ def _wheels(args: argparse.Namespace) -> int:
     radius = float(kinematics.turning_radius(args.linear, args.angular))
     print(f"  turning radius {radius:g} m")
     if r.name == "igv":
-        u_left, u_right = kinematics.igv_wheel_rpm(args.linear, args.angular)
-        units = kinematics.rpm_to_drive_units(np.array([u_left, u_right]),
+        u_right, u_left = kinematics.igv_wheel_rpm(args.linear, args.angular)
+        units = kinematics.rpm_to_drive_units(np.array([u_right, u_left]),
                                               r.encoder_resolution)
-        print(f"  IGV RPM (left, right): {float(u_left):.3f}, {float(u_right):.3f}; drive units "
+        print(f"  IGV RPM (right, left): {float(u_right):.3f}, {float(u_left):.3f}; drive units "
               f"0x{int(units[0]) & 0xFFFFFFFF:08X}, 0x{int(units[1]) & 0xFFFFFFFF:08X}")
     return 0
 

@@ -94,6 +94,22 @@ class DCMotor:
                          (voltage - self.resistance * current - self.k_e * omega)
                          / self.inductance])
 
+    def quasi_static_step(self, wheel_speed: float, voltage: float, dt: float,
+                          current_limit: float | None = None) -> float:
+        """The wheel speed [rad/s] after ``dt`` [s] at ``voltage`` [V], inductance neglected.
+
+        When the electrical time constant L/R is far below ``dt``, the current settles within
+        the step at ``i = (V − K_e ω) / R`` (where :meth:`derivatives` gives di/dt = 0),
+        limited to ±``current_limit`` [A] (the drive's limit, ``peak_current`` by default);
+        then one explicit Euler step of ``J ω̇ = K_t i − b ω`` at the motor shaft.
+        """
+        limit = self.peak_current if current_limit is None else current_limit
+        omega = wheel_speed * self.gear_ratio
+        current = (voltage - self.k_e * omega) / self.resistance
+        current = min(max(current, -limit), limit)
+        omega += (self.k_t * current - self.friction * omega) / self.inertia * dt
+        return omega / self.gear_ratio
+
     @property
     def no_load_wheel_speed(self) -> float:
         """ω at the wheel with the full voltage and no load [rad/s]."""

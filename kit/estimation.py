@@ -223,6 +223,11 @@ class FusionFilter:
         Output rate [Hz] of :meth:`outputs`.
     model : PlanarModel
         Process model and noise.
+    initial_covariance : float
+        Variance on each state's diagonal at the start.
+    initial_pose : array_like, shape (3,)
+        (x, y, yaw) in ``odom`` [m, m, rad] where the robot starts; the velocities and the
+        acceleration start at zero.
 
     Feed messages with :meth:`add_odometry` / :meth:`add_imu` in time order; each is fused at
     its own stamp (the filter predicts up to it first). Read the estimate with
@@ -232,7 +237,8 @@ class FusionFilter:
     def __init__(self, sensors: dict[str, SensorConfig], frequency: float = 30.0,
                  model: PlanarModel | None = None, initial_covariance: float = 1e-6,
                  two_d_mode: bool = True, odom_frame: str = "odom",
-                 base_frame: str = "base_link") -> None:
+                 base_frame: str = "base_link",
+                 initial_pose: ArrayLike = (0.0, 0.0, 0.0)) -> None:
         if not two_d_mode:
             raise ValueError("the kit's fusion filter is planar: two_d_mode must be True")
         if not frequency > 0:
@@ -240,10 +246,21 @@ class FusionFilter:
         self.sensors = dict(sensors)
         self.frequency = float(frequency)
         self.model = model or PlanarModel()
-        self.x = np.zeros(6)
-        self.P = np.eye(6) * initial_covariance
-        self.time: float | None = None
+        pose = geometry.check_pose(initial_pose, "initial_pose")
+        if pose.shape != (3,):
+            raise ValueError(f"initial_pose is one pose (x [m], y [m], yaw [rad]); got shape "
+                             f"{pose.shape}")
+        self._initial = (pose.copy(), float(initial_covariance))
         self.odom_frame, self.base_frame = odom_frame, base_frame
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the initial pose and covariance, with no time and no sensor history."""
+        pose, variance = self._initial
+        self.x = np.zeros(6)
+        self.x[:3] = pose
+        self.P = np.eye(6) * variance
+        self.time: float | None = None
         self._first_pose: dict[str, FloatArray] = {}
         self._last_pose: dict[str, tuple[float, FloatArray, FloatArray]] = {}
         self.nis_log: list[tuple[str, float, int]] = []

@@ -4,9 +4,12 @@ Conventions (stated once, used everywhere in the kit):
 
 * A planar pose is ``(x, y, theta)`` in metres and radians, an array of shape ``(3,)`` or
   ``(N, 3)`` for many poses. ``theta`` is yaw, counter-clockwise about +z (REP-103).
+* Transforms are named ``T_parent_child``, and only so: ``T_odom_base`` is base_link's pose in
+  odom, the transform that maps coordinates in ``base_link`` into ``odom`` (what ROS's
+  ``odom → base_link`` TransformStamped carries, ``frame_id`` the parent). Names chain left
+  to right: ``T_odom_laser = compose(T_odom_base, T_base_laser)``.
 * ``compose(a, b)`` is the SE(2) product ``a ⊕ b``: the pose ``b``, expressed in the frame of
-  ``a``, taken into the frame ``a`` is expressed in. With ``T_odom_base = compose(T_odom_x,
-  T_x_base)`` frames chain left to right, like the ``A2B`` names of pytransform3d.
+  ``a``, taken into the frame ``a`` is expressed in.
 * ``relative(a, b) = inverse(a) ⊕ b`` is ``b ⊖ a``: where ``b`` is, seen from ``a``.
 * Quaternions are in ROS order ``(x, y, z, w)``.
 * Every angle difference goes through :func:`wrap_angle`, which maps to ``[-pi, pi)``.
@@ -47,6 +50,9 @@ def wrap_angle(angle: ArrayLike) -> FloatArray:
     >>> float(wrap_angle(np.pi))
     -3.141592653589793
     """
+    if type(angle) is float:  # the simulator's hot path: the same arithmetic without numpy
+        w = (angle + math.pi) % (2.0 * math.pi) - math.pi
+        return np.asarray(w - 2.0 * math.pi if w >= math.pi else w)
     a = np.asarray(angle, dtype=np.float64)
     wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
     # mod can round up to exactly 2*pi for inputs just below a multiple of 2*pi

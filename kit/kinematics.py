@@ -9,9 +9,9 @@ rolling constraints of the two wheels and the no-sliding constraints stack into
           A = \\begin{bmatrix}1&0&b\\\\1&0&-b\\\\0&-1&0\\\\0&-1&0\\end{bmatrix},\\quad
           B = \\begin{bmatrix}r&0\\\\0&r\\\\0&0\\\\0&0\\end{bmatrix}
 
-(``r`` wheel radius, ``b`` half-track). Neither matrix is square, so the forward kinematics is
-the least-squares solution ``xi = A⁺ B phi_dot`` and the inverse ``phi_dot = B⁺ A xi`` (``⁺``
-the Moore–Penrose pseudo-inverse), which work out to
+(``r`` wheel radius, ``b = l / 2`` half the wheel separation ``l``). Neither matrix is
+square, so the forward kinematics is the least-squares solution ``xi = A⁺ B phi_dot`` and
+the inverse ``phi_dot = B⁺ A xi`` (``⁺`` the Moore–Penrose pseudo-inverse), which work out to
 
     x_dot = r (phi_r + phi_l) / 2,  y_dot = 0,  theta_dot = r (phi_r - phi_l) / (2 b)
     phi_r = (x_dot + b theta_dot) / r,  phi_l = (x_dot - b theta_dot) / r
@@ -21,6 +21,9 @@ turns faster.
 
 The IGV's equations (its paper) use wheel RPM ``u`` and 1.005 m per wheel turn:
 ``u_{L,R} = (4000 v ∓ 1440 ω) / 67``; its drives take velocities in counts/s × 2¹⁷/20000.
+
+Every function takes the wheel separation ``wheel_separation`` (``l``, the distance between
+the wheels' contact points) and orders wheel pairs (right, left), the IGV's included.
 """
 
 from __future__ import annotations
@@ -77,15 +80,16 @@ def _last_axis(values: ArrayLike, n: int, name: str, meaning: str) -> FloatArray
     return a
 
 
-def constraint_matrices(wheel_radius: float, half_track: float) -> tuple[FloatArray, FloatArray]:
+def constraint_matrices(wheel_radius: float,
+                        wheel_separation: float) -> tuple[FloatArray, FloatArray]:
     """The stacked rolling and no-sliding constraints ``A xi = B phi_dot``.
 
     Parameters
     ----------
     wheel_radius : float
         r [m].
-    half_track : float
-        b, half the distance between the wheels [m].
+    wheel_separation : float
+        l, the distance between the wheels [m]; ``b = l / 2`` in the matrices.
 
     Returns
     -------
@@ -94,7 +98,7 @@ def constraint_matrices(wheel_radius: float, half_track: float) -> tuple[FloatAr
     B : ndarray, shape (4, 2)
     """
     r = _positive(wheel_radius, "wheel_radius", "metres")
-    b = _positive(half_track, "half_track", "metres")
+    b = _positive(wheel_separation, "wheel_separation", "metres") / 2.0
     A = np.array([[1.0, 0.0, b],
                   [1.0, 0.0, -b],
                   [0.0, -1.0, 0.0],
@@ -107,32 +111,32 @@ def constraint_matrices(wheel_radius: float, half_track: float) -> tuple[FloatAr
 
 
 def forward_kinematics(wheel_speeds: ArrayLike, wheel_radius: float,
-                       half_track: float) -> FloatArray:
+                       wheel_separation: float) -> FloatArray:
     """Body velocity from wheel speeds: ``xi = A⁺ B phi_dot``.
 
     Parameters
     ----------
     wheel_speeds : array_like, shape (2,) or (N, 2)
         ``[phi_dot_r, phi_dot_l]`` [rad/s], right wheel first.
-    wheel_radius, half_track : float
-        r and b [m].
+    wheel_radius, wheel_separation : float
+        r and l [m].
 
     Returns
     -------
     ndarray, shape (3,) or (N, 3)
         ``[x_dot, y_dot, theta_dot]`` in base_link [m/s, m/s, rad/s].
 
-    >>> np.allclose(forward_kinematics([10.0, 10.0], 0.05, 0.1805), [0.5, 0.0, 0.0])
+    >>> np.allclose(forward_kinematics([10.0, 10.0], 0.05, 0.361), [0.5, 0.0, 0.0])
     True
     """
     phi = _last_axis(wheel_speeds, 2, "wheel_speeds", "[right, left] wheel speeds in rad/s")
-    A, B = constraint_matrices(wheel_radius, half_track)
+    A, B = constraint_matrices(wheel_radius, wheel_separation)
     J = np.linalg.pinv(A) @ B  # (3, 2)
     return phi @ J.T
 
 
 def inverse_kinematics(body_velocity: ArrayLike, wheel_radius: float,
-                       half_track: float) -> FloatArray:
+                       wheel_separation: float) -> FloatArray:
     """Wheel speeds from a body velocity: ``phi_dot = B⁺ A xi``.
 
     ``y_dot`` cannot be produced by a differential drive; the pseudo-inverse ignores it
@@ -142,17 +146,19 @@ def inverse_kinematics(body_velocity: ArrayLike, wheel_radius: float,
     ----------
     body_velocity : array_like, shape (3,) or (N, 3)
         ``[x_dot, y_dot, theta_dot]`` in base_link [m/s, m/s, rad/s].
+    wheel_radius, wheel_separation : float
+        r and l [m].
 
     Returns
     -------
     ndarray, shape (2,) or (N, 2)
         ``[phi_dot_r, phi_dot_l]`` [rad/s].
 
-    >>> inverse_kinematics([0.0, 0.0, 1.0], 0.05, 0.1805).round(12).tolist()
+    >>> inverse_kinematics([0.0, 0.0, 1.0], 0.05, 0.361).round(12).tolist()
     [3.61, -3.61]
     """
     xi = _last_axis(body_velocity, 3, "body_velocity", "[x_dot, y_dot, theta_dot]")
-    A, B = constraint_matrices(wheel_radius, half_track)
+    A, B = constraint_matrices(wheel_radius, wheel_separation)
     J = np.linalg.pinv(B) @ A  # (2, 3)
     return xi @ J.T
 
@@ -163,13 +169,13 @@ def twist_to_wheel_speeds(linear: ArrayLike, angular: ArrayLike, wheel_radius: f
     v = np.asarray(linear, dtype=np.float64)
     w = np.asarray(angular, dtype=np.float64)
     xi = np.stack(np.broadcast_arrays(v, np.zeros_like(v), w), axis=-1)
-    return inverse_kinematics(xi, wheel_radius, wheel_separation / 2.0)
+    return inverse_kinematics(xi, wheel_radius, wheel_separation)
 
 
 def wheel_speeds_to_twist(wheel_speeds: ArrayLike, wheel_radius: float,
                           wheel_separation: float) -> tuple[FloatArray, FloatArray]:
     """``[phi_dot_r, phi_dot_l]`` [rad/s] → (v [m/s], ω [rad/s])."""
-    xi = forward_kinematics(wheel_speeds, wheel_radius, wheel_separation / 2.0)
+    xi = forward_kinematics(wheel_speeds, wheel_radius, wheel_separation)
     return xi[..., 0], xi[..., 2]
 
 
@@ -194,7 +200,7 @@ def motor_speeds_to_twist(motor_speeds: ArrayLike, wheel_radius: float, wheel_se
     m = _last_axis(motor_speeds, 2, "motor_speeds", "[right, left] motor speeds in turns/s")
     i = _positive(gear_ratio, "gear_ratio", "motor turns per wheel turn")
     wheel = m * np.array([1.0, float(left_sign)]) * 2.0 * np.pi / i
-    xi = forward_kinematics(wheel, wheel_radius, wheel_separation / 2.0)
+    xi = forward_kinematics(wheel, wheel_radius, wheel_separation)
     return np.stack([xi[..., 0], xi[..., 2]], axis=-1)
 
 
@@ -220,24 +226,31 @@ def twist_to_motor_speeds(linear: ArrayLike, angular: ArrayLike, wheel_radius: f
 # --------------------------------------------------------------------------- IGV
 
 def igv_wheel_rpm(linear: ArrayLike, angular: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """The IGV paper's eq. 7: ``u_{L,R} = (4000 v ∓ 1440 ω) / 67`` [RPM].
+    """The IGV paper's eq. 7: ``u_{R,L} = (4000 v ± 1440 ω) / 67`` [RPM].
 
-    Follows from ``v_{L,R} = 1.005 u / 60`` and ``l = 0.72 m``. Returns ``(u_L, u_R)``
-    (left first, as the paper writes them).
+    Follows from ``v_{L,R} = 1.005 u / 60`` and ``l = 0.72 m``. Returns ``(u_R, u_L)``,
+    right first as every wheel pair in the kit (the paper writes ``u_{L,R}``, left first).
 
-    >>> [round(float(u), 6) for u in igv_wheel_rpm(1.0, 0.0)]
-    [59.701493, 59.701493]
+    Parameters
+    ----------
+    linear, angular : array_like
+        v [m/s] along base_link's x and ω [rad/s], counter-clockwise positive.
+
+    >>> [round(float(u), 6) for u in igv_wheel_rpm(0.0, 0.67)]
+    [14.4, -14.4]
     """
     v = np.asarray(linear, dtype=np.float64)
     w = np.asarray(angular, dtype=np.float64)
-    return (4000.0 * v - 1440.0 * w) / 67.0, (4000.0 * v + 1440.0 * w) / 67.0
+    return (4000.0 * v + 1440.0 * w) / 67.0, (4000.0 * v - 1440.0 * w) / 67.0
 
 
-def igv_body_velocity(u_left: ArrayLike, u_right: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """The IGV paper's eqs. 1, 3, 6: ``v = 67 (u_L + u_R) / 8000``, ``ω = 67 (u_R − u_L) / 2880``.
+def igv_body_velocity(u_right: ArrayLike, u_left: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """The IGV paper's eqs. 1, 3, 6: ``v = 67 (u_R + u_L) / 8000``, ``ω = 67 (u_R − u_L) / 2880``.
+
+    Wheel speeds ``u_right``, ``u_left`` in RPM; returns (v [m/s], ω [rad/s]).
     """
-    uL = np.asarray(u_left, dtype=np.float64)
     uR = np.asarray(u_right, dtype=np.float64)
+    uL = np.asarray(u_left, dtype=np.float64)
     return 67.0 * (uL + uR) / 8000.0, 67.0 * (uR - uL) / 2880.0
 
 
@@ -274,12 +287,12 @@ def turning_radius(linear: ArrayLike, angular: ArrayLike) -> FloatArray:
     return np.where(w == 0.0, straight, R)
 
 
-def turning_radius_from_wheels(v_left: ArrayLike, v_right: ArrayLike,
+def turning_radius_from_wheels(v_right: ArrayLike, v_left: ArrayLike,
                                wheel_separation: float) -> FloatArray:
-    """The IGV paper's eq. 5: ``R = l (v_L + v_R) / (2 (v_R − v_L))`` from wheel velocities
-    [m/s]; ``±inf`` when both wheels run at the same speed."""
-    vl = np.asarray(v_left, dtype=np.float64)
+    """The IGV paper's eq. 5: ``R = l (v_R + v_L) / (2 (v_R − v_L))`` from the (right, left)
+    wheel velocities [m/s]; ``±inf`` when both wheels run at the same speed."""
     vr = np.asarray(v_right, dtype=np.float64)
+    vl = np.asarray(v_left, dtype=np.float64)
     l_ = _positive(wheel_separation, "wheel_separation", "metres")
     return turning_radius((vl + vr) / 2.0, (vr - vl) / l_)
 

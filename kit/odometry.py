@@ -282,6 +282,13 @@ def odom_transform(pose: ArrayLike, stamp: msgs.Time, frame_id: str = "odom",
                        msgs.Quaternion(*map(float, q))))
 
 
+def _single_pose(pose: ArrayLike, name: str) -> FloatArray:
+    p = geometry.check_pose(pose, name)
+    if p.shape != (3,):
+        raise ValueError(f"{name} is one pose (x [m], y [m], theta [rad]); got shape {p.shape}")
+    return p.copy()
+
+
 class WheelOdometry:
     """Stateful odometry node logic: raw counter readings in, ``Odometry`` out.
 
@@ -298,10 +305,14 @@ class WheelOdometry:
         Width of the encoder counters (roll-over).
     k_right, k_left : float
         Wheel-travel variance per metre [m²/m] for the covariance.
+    method : {"exact", "midpoint", "euler"}
+    initial_pose : array_like, shape (3,)
+        (x, y, θ) in odom [m, m, rad] where the robot starts (odom's origin by default).
     """
 
     def __init__(self, metres_per_tick: float, wheel_separation: float, counter_bits: int = 32,
-                 k_right: float = 0.0, k_left: float = 0.0, method: Method = "exact") -> None:
+                 k_right: float = 0.0, k_left: float = 0.0, method: Method = "exact",
+                 initial_pose: ArrayLike = (0.0, 0.0, 0.0)) -> None:
         if not metres_per_tick > 0 or not wheel_separation > 0:
             raise ValueError("metres_per_tick and wheel_separation must be positive")
         self.metres_per_tick = float(metres_per_tick)
@@ -309,21 +320,23 @@ class WheelOdometry:
         self.counter_bits = int(counter_bits)
         self.k = (float(k_right), float(k_left))
         self.method: Method = method
-        self.pose = np.zeros(3)
+        self.pose = _single_pose(initial_pose, "initial_pose")
         self.covariance = np.zeros((3, 3))
         self.velocity = np.zeros(2)
         self.twist_covariance = np.diag([1e-9, UNUSED_VARIANCE, 1e-9])
         self._last: tuple[int, int, float] | None = None
 
     @classmethod
-    def for_robot(cls, robot: object, method: Method = "exact") -> WheelOdometry:
-        """Set up from a :class:`kit.robots.RobotDescription`."""
+    def for_robot(cls, robot: object, method: Method = "exact",
+                  initial_pose: ArrayLike = (0.0, 0.0, 0.0)) -> WheelOdometry:
+        """Set up from a :class:`kit.robots.RobotDescription` (``Simulation.description()``
+        gives a simulated robot's), starting at ``initial_pose``."""
         from kit.robots import RobotDescription
 
         if not isinstance(robot, RobotDescription):
             raise TypeError(f"expected a RobotDescription; got {type(robot).__name__}")
         return cls(robot.metres_per_tick, robot.wheel_separation, robot.counter_bits,
-                   robot.odometry_k[0], robot.odometry_k[1], method)
+                   robot.odometry_k[0], robot.odometry_k[1], method, initial_pose)
 
     def update(self, ticks_right: int, ticks_left: int, time: float) -> msgs.Odometry:
         """Feed one pair of raw counter readings taken at ``time`` [s]."""

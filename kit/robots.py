@@ -101,11 +101,6 @@ class RobotDescription:
     """the whole parameter file, for robot-specific numbers (drive addresses, PID gains…)."""
 
     @property
-    def half_track(self) -> float:
-        """b, half the wheel separation [m]."""
-        return self.wheel_separation / 2.0
-
-    @property
     def ticks_per_wheel_turn(self) -> float:
         return self.encoder_resolution * self.gear_ratio
 
@@ -130,7 +125,7 @@ class RobotDescription:
                                   j.transform().to_msg())
             for j in self.joints)
 
-    def transform_tree(self, map_to_odom: RigidTransform | None = None,
+    def transform_tree(self, T_map_odom: RigidTransform | None = None,
                        cache_time: float = 10.0) -> TransformTree:
         """The REP-105 tree: ``map → odom`` (static identity unless given; localization
         replaces it), the URDF's static children of ``base_link``. Add ``odom → base_link``
@@ -138,8 +133,8 @@ class RobotDescription:
         tree = TransformTree(cache_time=cache_time)
         for j in self.joints:
             tree.set_static(j.parent, j.child, j.transform())
-        if map_to_odom is not None:
-            tree.set_transform("map", "odom", 0.0, map_to_odom)
+        if T_map_odom is not None:
+            tree.set_transform("map", "odom", 0.0, T_map_odom)
         else:
             tree.set_static("map", "odom", RigidTransform.identity())
         return tree
@@ -243,31 +238,20 @@ def _require(params: dict[str, Any], section: str, key: str, path: Path) -> Any:
         raise RobotDescriptionError(f"{path}: missing {where}{key}") from None
 
 
-def load(name_or_path: str | Path) -> RobotDescription:
-    """Load a robot by name (``"uiabot"``, ``"igv"``, ``"eddie"``) or parameter-file path.
-
-    Raises
-    ------
-    RobotDescriptionError
-        The file is missing or malformed; the message names the file and the problem.
-
-    >>> robot = load("uiabot")
-    >>> robot.wheel_radius, robot.wheel_separation, robot.half_track
-    (0.05, 0.361, 0.1805)
-    """
-    path = _resolve(name_or_path)
+def _read_parameters(path: Path) -> dict[str, Any]:
+    """The parameter file's TOML as a dict."""
     try:
         with open(path, "rb") as fh:
-            params = tomllib.load(fh)
+            return tomllib.load(fh)
     except FileNotFoundError:
         raise RobotDescriptionError(f"{path}: no such robot parameter file") from None
     except tomllib.TOMLDecodeError as exc:
         raise RobotDescriptionError(f"{path}: not valid TOML ({exc})") from None
-    urdf_path = path.parent / str(_require(params, "", "urdf", path))
-    if not urdf_path.is_file():
-        raise RobotDescriptionError(f"{path}: its URDF {urdf_path} does not exist")
-    robot_name, links, joints = _parse_urdf(urdf_path)
 
+
+def _wheel_geometry(urdf_path: Path, links: tuple[Link, ...],
+                    joints: tuple[Joint, ...]) -> tuple[float, float]:
+    """(wheel radius, wheel separation) [m] from the URDF's wheel joints and link."""
     by_name = {j.name: j for j in joints}
     for needed in ("right_wheel_joint", "left_wheel_joint"):
         if needed not in by_name:
@@ -283,15 +267,23 @@ def load(name_or_path: str | Path) -> RobotDescription:
         raise RobotDescriptionError(
             f"{urdf_path}: wheel link {wheel_link.name!r} has no collision cylinder to take "
             f"the wheel radius from")
-    separation = round(float(np.linalg.norm(left.xyz[:2] - right.xyz[:2])), 9)
+    return float(radii[0]), round(float(np.linalg.norm(left.xyz[:2] - right.xyz[:2])), 9)
 
-    drive = params.get("drive", {})
+
+def _drive_parameters(params: dict[str, Any], path: Path) -> dict[str, Any]:
+    """The ``[drive]`` section, every number in it checked positive."""
     for key in ("gear_ratio", "encoder_resolution", "counter_bits", "max_wheel_speed",
                 "max_linear_velocity", "max_angular_velocity", "max_linear_acceleration"):
         value = _require(params, "drive", key, path)
         if not isinstance(value, (int, float)) or value <= 0:
             raise RobotDescriptionError(f"{path}: [drive] {key} must be a positive number; "
                                         f"got {value!r}")
+    return dict(params["drive"])
+
+
+def _footprint(params: dict[str, Any], path: Path) -> NDArray[np.float64]:
+    """The ``[footprint]`` polygon (N, 2) in base_link [m]: given points, or a 16-gon of the
+    given radius."""
     fp = params.get("footprint", {})
     if "points" in fp:
         footprint = np.array(fp["points"], dtype=float)
@@ -303,6 +295,29 @@ def load(name_or_path: str | Path) -> RobotDescription:
     else:
         raise RobotDescriptionError(f"{path}: [footprint] needs points or radius")
     footprint.flags.writeable = False
+    return footprint
+
+
+def load(name_or_path: str | Path) -> RobotDescription:
+    """Load a robot by name (``"uiabot"``, ``"igv"``, ``"eddie"``) or parameter-file path.
+
+    Raises
+    ------
+    RobotDescriptionError
+        The file is missing or malformed; the message names the file and the problem.
+
+    >>> robot = load("uiabot")
+    >>> robot.wheel_radius, robot.wheel_separation
+    (0.05, 0.361)
+    """
+    path = _resolve(name_or_path)
+    params = _read_parameters(path)
+    urdf_path = path.parent / str(_require(params, "", "urdf", path))
+    if not urdf_path.is_file():
+        raise RobotDescriptionError(f"{path}: its URDF {urdf_path} does not exist")
+    robot_name, links, joints = _parse_urdf(urdf_path)
+    wheel_radius, wheel_separation = _wheel_geometry(urdf_path, links, joints)
+    drive = _drive_parameters(params, path)
     odo = params.get("odometry", {})
     sensors = MappingProxyType({k: MappingProxyType(dict(v))
                                 for k, v in params.get("sensors", {}).items()})
@@ -312,8 +327,8 @@ def load(name_or_path: str | Path) -> RobotDescription:
         source=path,
         links=links,
         joints=joints,
-        wheel_radius=float(radii[0]),
-        wheel_separation=separation,
+        wheel_radius=wheel_radius,
+        wheel_separation=wheel_separation,
         gear_ratio=float(drive["gear_ratio"]),
         encoder_resolution=int(drive["encoder_resolution"]),
         counter_bits=int(drive["counter_bits"]),
@@ -322,7 +337,7 @@ def load(name_or_path: str | Path) -> RobotDescription:
         max_angular_velocity=float(drive["max_angular_velocity"]),
         max_linear_acceleration=float(drive["max_linear_acceleration"]),
         mass=float(sum(link.mass for link in links)),
-        footprint=footprint,
+        footprint=_footprint(params, path),
         odometry_k=(float(odo.get("k_right", 0.0)), float(odo.get("k_left", 0.0))),
         sensors=sensors,
         parameters=MappingProxyType(params),

@@ -7,7 +7,9 @@ walking people; rendering (:mod:`sim.render`) and ROS 2 bags (:mod:`sim.bag`).
     >>> round(float(sim.ground_truth().pose[0]), 1)
     2.5
 
-:mod:`sim.kinematic` keeps the lighter kinematic model with imperfect wheels.
+:mod:`sim.runner` runs closed loops: a simulation, nodes (odometry, fusion, …), a controller
+and recorded signals. :mod:`sim.kinematic` keeps the lighter kinematic model with imperfect
+wheels.
 ``python -m sim demo`` runs the headless see–think–act demo; ``python -m sim bench`` measures.
 """
 

@@ -167,7 +167,7 @@ def teleop_panel(sim: Simulation, step_seconds: float = 0.5, speed: float | None
     import ipywidgets as widgets
     from IPython.display import display
 
-    d = sim.robots[0].description
+    d = sim.description()
     v = speed if speed is not None else 0.5 * d.max_linear_velocity
     w = turn_rate if turn_rate is not None else 0.5 * d.max_angular_velocity
     output = widgets.Output()

@@ -29,6 +29,7 @@ import pymunk
 from numpy.typing import NDArray
 
 from kit import geometry, kinematics, msgs
+from kit.control import DCMotor
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
 from sim.sensors import Imu, Lidar, encoder_counts
@@ -64,7 +65,7 @@ class Physics:
     model, the one ``kit.odometry`` propagates). Zero (the default) keeps the floor
     deterministic; the robot's own ``odometry_k`` makes the encoders err exactly as its
     odometry covariance says."""
-    wheel_motor: Any = None
+    wheel_motor: DCMotor | None = None
     """a ``kit.control.DCMotor``: when given (with ``Simulation(wheel_controllers=...)``),
     each wheel is that gear-motor driven by its controller's voltage instead of an ideal
     servo. The motor's inductance is neglected (its 0.7 ms time constant is far below the
@@ -105,7 +106,6 @@ class _Robot:
     body: pymunk.Body
     grounds: list[pymunk.Body]
     joints: list[pymunk.PivotJoint]
-    half_track: float
     traction: float
     lidar: Lidar | None
     imu: Imu | None
@@ -249,7 +249,8 @@ class Simulation:
         self.space.add(body, shape)
         traction = ph.friction * d.mass * ph.gravity * ph.weight_on_wheels / 2
         grounds, joints = [], []
-        for y in (-d.half_track, d.half_track):  # right, left
+        half = d.wheel_separation / 2.0
+        for y in (-half, half):  # right, left
             ground = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             joint = pymunk.PivotJoint(body, ground, (0.0, y), (0.0, 0.0))
             joint.max_bias = 0.0
@@ -272,8 +273,7 @@ class Simulation:
             imu = Imu(d.sensors["imu"], mount2, np.random.default_rng(self.rng.integers(2**63)))
         prefix = "" if len(self.descriptions) == 1 else f"/robot{index}"
         offset = self.rng.integers(0, 1 << min(d.counter_bits, 62), 2, dtype=np.int64)
-        robot = _Robot(d, body, grounds, joints, d.half_track, traction, lidar, imu, prefix,
-                       offset)
+        robot = _Robot(d, body, grounds, joints, traction, lidar, imu, prefix, offset)
         if self._controller_factory is not None:
             robot.controllers = [self._controller_factory(), self._controller_factory()]
         return robot
@@ -373,8 +373,9 @@ class Simulation:
         motor = ph.wheel_motor
         for k in (0, 1):
             if motor is not None:
-                speed = self._motor_step(motor, r.controllers[k], float(r.wheel_target[k]),
-                                         float(speeds[k]), dt)
+                volts = float(r.controllers[k](float(r.wheel_target[k]), float(speeds[k])))
+                volts = min(max(volts, -motor.voltage), motor.voltage)
+                speed = motor.quasi_static_step(float(speeds[k]), volts, dt)
             else:
                 change = float(r.wheel_target[k]) - float(speeds[k])
                 speed = float(speeds[k]) + (limit if change > limit else
@@ -390,29 +391,16 @@ class Simulation:
                 r.wheel_angle[k] += slip / d.wheel_radius
             r.grounds[k].velocity = (rim * c, rim * s)
             if oily:
-                y = -r.half_track if k == 0 else r.half_track
+                y = (-0.5 if k == 0 else 0.5) * d.wheel_separation
                 slippery = self.world.in_oil(px - s * y, py + c * y)
                 if slippery != r.on_oil[k]:  # pymunk's setters are dear: only on a change
                     r.on_oil[k] = slippery
                     r.joints[k].max_force = oil_force if slippery else r.traction
 
-    @staticmethod
-    def _motor_step(motor: Any, controller: Any, target: float, speed: float,
-                    dt: float) -> float:
-        """One step of a wheel driven by a DC gear-motor under its speed controller."""
-        volts = min(max(float(controller(target, speed)), -motor.voltage), motor.voltage)
-        omega = speed * motor.gear_ratio
-        current = (volts - motor.k_e * omega) / motor.resistance
-        current = min(max(current, -motor.peak_current), motor.peak_current)
-        omega += (motor.k_t * current - motor.friction * omega) / motor.inertia * dt
-        return omega / motor.gear_ratio
-
     def _read_state(self, r: _Robot, dt: float | None = None) -> None:
         b = r.body
         angle = b.angle
-        yaw = math.remainder(angle, 2 * math.pi)
-        if yaw >= math.pi:  # remainder may give +pi; the kit's angles live in [-pi, pi)
-            yaw -= 2 * math.pi
+        yaw = float(geometry.wrap_angle(angle))
         vx, vy = b.velocity
         c, s = math.cos(angle), math.sin(angle)
         v_forward = c * vx + s * vy
@@ -480,6 +468,13 @@ class Simulation:
         return out
 
     # ------------------------------------------------------------------ reading
+    def description(self, robot: int = 0) -> RobotDescription:
+        """The description (URDF and parameters) of robot ``robot`` as simulated."""
+        if not 0 <= robot < len(self.descriptions):
+            raise ValueError(f"robot index {robot} is out of range: this simulation has "
+                             f"{len(self.descriptions)} robot(s)")
+        return self.descriptions[robot]
+
     def clock(self) -> msgs.Time:
         return msgs.Time.from_sec(self.time)
 
@@ -513,7 +508,8 @@ class Simulation:
         v_forward, w = float(r.velocity[0]), float(r.velocity[1])
         rim = r.wheel_speed * r.description.wheel_radius * \
             (1.0 + np.asarray(self.physics.wheel_radius_errors))
-        ground_speed = np.array([v_forward + w * r.half_track, v_forward - w * r.half_track])
+        half = 0.5 * r.description.wheel_separation
+        ground_speed = np.array([v_forward + w * half, v_forward - w * half])
         return GroundTruth(self.time, r.pose.copy(), r.velocity.copy(), rim - ground_speed,
                            self.world.in_oil(float(r.pose[0]), float(r.pose[1])))
 

@@ -19,6 +19,7 @@ from kit.estimation import (
     residual,
     update,
 )
+from kit.geometry import wrap_angle
 from sim import Simulation
 
 T, F = True, False
@@ -143,19 +144,16 @@ def drive_and_fuse(sim: Simulation, sensors: dict[str, SensorConfig],
                    ) -> tuple[odometry.WheelOdometry, FusionFilter]:
     """Drive ``plan`` (seconds, command); the odometry node runs on the encoders with the
     joint states, the fusion filter takes its Odometry as "odom0" and the IMU as "imu0"."""
-    node = odometry.WheelOdometry.for_robot(sim.robots[0].description)
-    node.pose = sim.ground_truth().pose.copy()
-    node.update(*sim.encoder_ticks(), 0.0)
-    fusion = FusionFilter(sensors, frequency=30.0)
-    fusion.x[:3] = node.pose
-    for seconds, cmd in plan:
-        for k in range(round(seconds / 0.01)):
-            for topic, message in sim.step(cmd if k == 0 else None):
-                if topic == "/joint_states":
-                    fusion.add_odometry("odom0", node.update(*sim.encoder_ticks(), sim.time))
-                elif topic == "/imu":
-                    fusion.add_imu("imu0", message)
-    return node, fusion
+    from sim.runner import FusionNode, Runner, ScriptedCommands, WheelOdometryNode
+
+    start = sim.ground_truth().pose
+    wheels = WheelOdometryNode()
+    fusion = FusionFilter(sensors, frequency=30.0, initial_pose=start)
+    commands = ScriptedCommands(plan)
+    Runner(sim, [wheels, FusionNode(fusion, {"/odom": "odom0", "/imu": "imu0"})],
+           controller=commands).run(commands.duration)
+    assert wheels.odometry is not None
+    return wheels.odometry, fusion
 
 
 def test_fusion_keeps_the_heading_when_a_wheel_slips_on_oil():
@@ -168,8 +166,8 @@ def test_fusion_keeps_the_heading_when_a_wheel_slips_on_oil():
         sim = Simulation(world="square", robot="uiabot", seed=seed, start=[3.6, 2.0, 0.0])
         node, fusion = drive_and_fuse(sim, {"odom0": ODOM0, "imu0": IMU0}, plan)
         truth = sim.ground_truth().pose[2]
-        wheel_error = abs(math.remainder(node.pose[2] - truth, 2 * math.pi))
-        fused_error = abs(math.remainder(fusion.x[2] - truth, 2 * math.pi))
+        wheel_error = abs(float(wrap_angle(node.pose[2] - truth)))
+        fused_error = abs(float(wrap_angle(fusion.x[2] - truth)))
         assert wheel_error > 0.3
         ratios.append(wheel_error / fused_error)
         out = fusion.odometry()

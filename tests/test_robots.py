@@ -11,7 +11,7 @@ def test_uiabot_numbers_with_errata_3_and_4_fixed():
     r = robots.load("uiabot")
     assert r.wheel_radius == 0.05
     assert r.wheel_separation == pytest.approx(0.361)
-    assert r.half_track == pytest.approx(0.1805)  # erratum 3: not the paper's 0.032 m
+    assert r.wheel_separation / 2 == pytest.approx(0.1805)  # erratum 3: not the paper's 0.032 m
     assert r.joint("right_wheel_joint").xyz[1] == pytest.approx(-0.1805)  # erratum 4: y is left
     assert r.joint("left_wheel_joint").xyz[1] == pytest.approx(0.1805)
     np.testing.assert_allclose(r.joint("laser_joint").xyz, [0.10, 0.0, 0.13])

@@ -1,11 +1,11 @@
 """The kinematic model (sim.kinematic) and the demo."""
 
-import math
 
 import numpy as np
 import pytest
 
 from kit import odometry, robots
+from kit.geometry import wrap_angle
 from sim import DiffDriveModel, WheelErrors, drive_square
 from sim import demo as demo_module
 
@@ -70,7 +70,7 @@ def test_oil_patch_makes_odometry_worse():
             est = odometry.integrate_odometry(
                 *[np.diff(run["ticks"][:, i]) * robot.metres_per_tick for i in (0, 1)],
                 robot.wheel_separation)
-            finals.append(abs(math.remainder(est[-1, 2] - run["true_pose"][-1, 2], 2 * math.pi)))
+            finals.append(abs(float(wrap_angle(est[-1, 2] - run["true_pose"][-1, 2]))))
         errors.append(np.mean(finals))
     assert errors[1] > 3 * errors[0]
 

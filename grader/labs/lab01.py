@@ -10,9 +10,8 @@ import numpy as np
 from grader.spec import Case, Diagnostic, Exercise, LabSpec
 from kit import kinematics as kin
 
-UIABOT = {"wheel_radius": 0.05, "half_track": 0.1805}
-IGV_R, IGV_B = 0.16, 0.36
-EDDIE_R, EDDIE_B = 0.0762, 0.195
+IGV_R, IGV_SEP = 0.16, 0.72
+EDDIE_R, EDDIE_SEP = 0.0762, 0.39
 
 _BLOCKED = tuple(f"kit.kinematics:{name}" for name in (
     "constraint_matrices", "forward_kinematics", "inverse_kinematics", "motor_speeds_to_twist",
@@ -22,27 +21,53 @@ _BLOCKED = tuple(f"kit.kinematics:{name}" for name in (
 
 
 def _robot_params(rng: np.random.Generator) -> tuple[float, float]:
-    return float(rng.uniform(0.03, 0.2)), float(rng.uniform(0.1, 0.5))
+    """A random wheel radius [m] and wheel separation [m]."""
+    return float(rng.uniform(0.03, 0.2)), float(rng.uniform(0.2, 1.0))
+
+
+def _degrees_last(values: Any) -> Any:
+    """The last component (a rate) converted to degrees per second."""
+    out = np.array(values, dtype=float)
+    out[..., -1] = np.degrees(out[..., -1])
+    return out
 
 
 # ---------------------------------------------------------------- constraint matrices
 
 def _constraints_hidden(rng: np.random.Generator) -> list[Case]:
-    return [Case(f"r={r:.3f}, b={b:.3f}", (r, b)) for r, b in
+    return [Case(f"r={r:.3f}, l={sep:.3f}", (r, sep)) for r, sep in
             (_robot_params(rng) for _ in range(4))]
 
 
-def _constraints_b_for_2b(r: float, b: float) -> Any:
-    return kin.constraint_matrices(r, 2 * b)
+def _constraints_b_is_separation(r: float, sep: float) -> Any:
+    return kin.constraint_matrices(r, 2 * sep)
+
+
+def _constraints_wheels_swapped(r: float, sep: float) -> Any:
+    """The rolling rows in (left, right) order: the left wheel's row first."""
+    A, B = kin.constraint_matrices(r, sep)
+    return A[[1, 0, 2, 3]], B
+
+
+def _constraints_transposed(r: float, sep: float) -> Any:
+    A, B = kin.constraint_matrices(r, sep)
+    return A.T, B.T
 
 
 constraint_matrices = Exercise(
     id="lab01.constraint_matrices", function="constraint_matrices", title="Constraint matrices",
     reference=kin.constraint_matrices, points=2,
-    public=(Case("Uiabot", (0.05, 0.1805)), Case("IGV", (IGV_R, IGV_B))),
+    public=(Case("Uiabot", (0.05, 0.361)), Case("IGV", (IGV_R, IGV_SEP))),
     hidden=_constraints_hidden,
-    diagnostics=(Diagnostic("using the wheel separation for b", _constraints_b_for_2b,
-                            "b is half the distance between the wheels"),),
+    diagnostics=(
+        Diagnostic("b = the whole wheel separation", _constraints_b_is_separation,
+                   "b is half the wheel separation: b = wheel_separation / 2"),
+        Diagnostic("the left wheel's rolling row first", _constraints_wheels_swapped,
+                   "row 1 is the right wheel (y = −b: ẋ + b θ̇ = r φ̇_r), row 2 the left"),
+        Diagnostic("A and B transposed", _constraints_transposed,
+                   "A has shape (4, 3) — one row per constraint, one column per "
+                   "component of ξ — and B (4, 2)"),
+    ),
     blocked=_BLOCKED,
 )
 
@@ -50,10 +75,11 @@ constraint_matrices = Exercise(
 # ---------------------------------------------------------------- forward kinematics
 
 FK_PUBLIC = (
-    Case("straight ahead", ([10.0, 10.0], 0.05, 0.1805)),
-    Case("right wheel faster", ([12.0, 8.0], 0.05, 0.1805)),
-    Case("turn in place", ([-5.0, 5.0], 0.05, 0.1805)),
-    Case("many speeds at once", (np.array([[1.0, 2.0], [3.0, -1.0], [0.0, 4.0]]), IGV_R, IGV_B)),
+    Case("straight ahead", ([10.0, 10.0], 0.05, 0.361)),
+    Case("right wheel faster", ([12.0, 8.0], 0.05, 0.361)),
+    Case("turn in place", ([-5.0, 5.0], 0.05, 0.361)),
+    Case("many speeds at once", (np.array([[1.0, 2.0], [3.0, -1.0], [0.0, 4.0]]), IGV_R,
+                                 IGV_SEP)),
 )
 
 
@@ -67,28 +93,39 @@ def _fk_hidden(rng: np.random.Generator) -> list[Case]:
     return cases
 
 
-def _fk_swapped(phi: Any, r: float, b: float) -> Any:
-    return kin.forward_kinematics(np.asarray(phi, float)[..., ::-1], r, b)
+def _fk_turns_right(phi: Any, r: float, sep: float) -> Any:
+    """Swapped wheels and the paper's sign (erratum 5) give the same numbers: θ̇ negated."""
+    return kin.forward_kinematics(phi, r, sep) * np.array([1.0, 1.0, -1.0])
 
 
-def _fk_turns_right(phi: Any, r: float, b: float) -> Any:
-    return kin.forward_kinematics(phi, r, b) * np.array([1.0, 1.0, -1.0])
+def _fk_b_is_separation(phi: Any, r: float, sep: float) -> Any:
+    return kin.forward_kinematics(phi, r, 2 * sep)
 
 
-def _fk_full_track(phi: Any, r: float, b: float) -> Any:
-    return kin.forward_kinematics(phi, r, b / 2)
+def _fk_degrees(phi: Any, r: float, sep: float) -> Any:
+    return _degrees_last(kin.forward_kinematics(phi, r, sep))
+
+
+def _fk_transposed(phi: Any, r: float, sep: float) -> Any:
+    """``phi @ J`` with J = A⁺B of shape (3, 2) cannot multiply; the mistake that runs is
+    ``phi @ (B⁺A)``: the inverse's matrix in place of the forward one."""
+    A, B = kin.constraint_matrices(r, sep)
+    return np.asarray(phi, float) @ (np.linalg.pinv(B) @ A)
 
 
 forward_kinematics = Exercise(
     id="lab01.forward_kinematics", function="forward_kinematics", title="Forward kinematics",
     reference=kin.forward_kinematics, points=3, public=FK_PUBLIC, hidden=_fk_hidden,
     diagnostics=(
-        Diagnostic("swapped wheels", _fk_swapped,
-                   "wheel arrays are ordered (right, left) in this lab"),
-        Diagnostic("the paper's sign (erratum 5)", _fk_turns_right,
-                   "a faster right wheel turns the robot left: theta_dot > 0 (REP-103)"),
-        Diagnostic("b used as the full wheel separation", _fk_full_track,
-                   "theta_dot = r (phi_r - phi_l) / (2 b), with b half the separation"),
+        Diagnostic("swapped wheels or the paper's turn sign (erratum 5)", _fk_turns_right,
+                   "wheel arrays are (right, left), and a faster right wheel turns the robot "
+                   "left: θ̇ = r (φ̇_r − φ̇_l) / l > 0 (REP-103)"),
+        Diagnostic("b = the whole wheel separation", _fk_b_is_separation,
+                   "θ̇ = r (φ̇_r − φ̇_l) / (2 b) with b = wheel_separation / 2"),
+        Diagnostic("θ̇ in degrees per second", _fk_degrees,
+                   "θ̇ is in rad/s: no conversion to degrees"),
+        Diagnostic("the inverse kinematics' matrix B⁺A", _fk_transposed,
+                   "the forward kinematics is ξ = A⁺ B φ̇ (pinv(A) @ B, shape (3, 2))"),
     ),
     blocked=_BLOCKED,
 )
@@ -108,27 +145,39 @@ def _ik_hidden(rng: np.random.Generator) -> list[Case]:
     return cases
 
 
-def _ik_swapped(xi: Any, r: float, b: float) -> Any:
-    return kin.inverse_kinematics(xi, r, b)[..., ::-1]
+def _ik_swapped(xi: Any, r: float, sep: float) -> Any:
+    return kin.inverse_kinematics(xi, r, sep)[..., ::-1]
 
 
-def _ik_forward_transposed(xi: Any, r: float, b: float) -> Any:
-    A, B = kin.constraint_matrices(r, b)
+def _ik_forward_transposed(xi: Any, r: float, sep: float) -> Any:
+    A, B = kin.constraint_matrices(r, sep)
     return np.asarray(xi, float) @ (np.linalg.pinv(A) @ B)
+
+
+def _ik_b_is_separation(xi: Any, r: float, sep: float) -> Any:
+    return kin.inverse_kinematics(xi, r, 2 * sep)
+
+
+def _ik_turns_per_second(xi: Any, r: float, sep: float) -> Any:
+    return kin.inverse_kinematics(xi, r, sep) / (2 * np.pi)
 
 
 inverse_kinematics = Exercise(
     id="lab01.inverse_kinematics", function="inverse_kinematics", title="Inverse kinematics",
     reference=kin.inverse_kinematics, points=3,
-    public=(Case("forward 0.5 m/s", ([0.5, 0.0, 0.0], 0.05, 0.1805)),
-            Case("turn in place", ([0.0, 0.0, 1.0], 0.05, 0.1805)),
-            Case("arc", ([0.4, 0.0, -0.8], EDDIE_R, EDDIE_B)),
-            Case("sideways is impossible", ([0.0, 0.3, 0.0], 0.05, 0.1805))),
+    public=(Case("forward 0.5 m/s", ([0.5, 0.0, 0.0], 0.05, 0.361)),
+            Case("turn in place", ([0.0, 0.0, 1.0], 0.05, 0.361)),
+            Case("arc", ([0.4, 0.0, -0.8], EDDIE_R, EDDIE_SEP)),
+            Case("sideways is impossible", ([0.0, 0.3, 0.0], 0.05, 0.361))),
     hidden=_ik_hidden,
     diagnostics=(
-        Diagnostic("swapped wheels", _ik_swapped, "return (phi_dot_r, phi_dot_l), right first"),
+        Diagnostic("swapped wheels", _ik_swapped, "return (φ̇_r, φ̇_l), right first"),
         Diagnostic("the transposed forward matrix", _ik_forward_transposed,
                    "the inverse is pinv(B) @ A, not the forward matrix transposed"),
+        Diagnostic("b = the whole wheel separation", _ik_b_is_separation,
+                   "φ̇_{r,l} = (ẋ ± b θ̇) / r with b = wheel_separation / 2"),
+        Diagnostic("turns per second", _ik_turns_per_second,
+                   "wheel speeds are in rad/s: no division by 2π"),
     ),
     blocked=_BLOCKED,
 )
@@ -138,7 +187,7 @@ inverse_kinematics = Exercise(
 
 def _odometry_node_hidden(rng: np.random.Generator) -> list[Case]:
     return [Case(f"random {i}", (rng.uniform(-40, 40, 2), 0.05, 0.361, 20.0, -1.0))
-            for i in range(4)]
+            for i in range(4)]  # (right, left) motor turns/s, r, l, gear ratio, left sign
 
 
 def _paper_odometry_node(motor: Any, r: float, sep: float, i: float, left_sign: float) -> Any:
@@ -161,6 +210,19 @@ def _odometry_node_no_sign(motor: Any, r: float, sep: float, i: float, left_sign
     return kin.motor_speeds_to_twist(motor, r, sep, i, 1.0)
 
 
+def _odometry_node_swapped(motor: Any, r: float, sep: float, i: float, left_sign: float) -> Any:
+    """The motors read (left, right): the left one's speed taken for the right wheel."""
+    return kin.motor_speeds_to_twist(np.asarray(motor, float)[..., ::-1], r, sep, i, left_sign)
+
+
+def _odometry_node_degrees(motor: Any, r: float, sep: float, i: float, left_sign: float) -> Any:
+    return _degrees_last(kin.motor_speeds_to_twist(motor, r, sep, i, left_sign))
+
+
+def _odometry_node_b_is_sep(motor: Any, r: float, sep: float, i: float, left_sign: float) -> Any:
+    return kin.motor_speeds_to_twist(motor, r, 2 * sep, i, left_sign)
+
+
 odometry_twist = Exercise(
     id="lab01.odometry_twist", function="odometry_twist",
     title="Find the bug: the odometry node (errata 1 and 5)",
@@ -177,7 +239,14 @@ odometry_twist = Exercise(
         Diagnostic("turns/s taken as rad/s", _odometry_node_no_2pi,
                    "the ODrive reports turns per second: multiply by 2π"),
         Diagnostic("ignoring the mirrored left motor", _odometry_node_no_sign,
-                   "multiply the left motor's speed by left_sign"),
+                   "the left motor reports a forward wheel as negative: multiply its speed "
+                   "by left_sign before the kinematics"),
+        Diagnostic("the motors read (left, right)", _odometry_node_swapped,
+                   "motor_speeds is (right, left): motor_speeds[0] is the right wheel's"),
+        Diagnostic("ω in degrees per second", _odometry_node_degrees,
+                   "ω is in rad/s: no conversion to degrees"),
+        Diagnostic("b = the whole wheel separation", _odometry_node_b_is_sep,
+                   "ω = r (φ̇_r − φ̇_l) / (2 b) with b = wheel_separation / 2"),
     ),
     blocked=_BLOCKED,
 )
@@ -203,6 +272,23 @@ def _twist_node_no_sign(v: float, w: float, r: float, sep: float, i: float,
     return kin.twist_to_motor_speeds(v, w, r, sep, i, 1.0)
 
 
+def _twist_node_swapped(v: float, w: float, r: float, sep: float, i: float,
+                        left_sign: float) -> Any:
+    """(left, right) wheel speeds, the left sign then applied to the first one."""
+    wheels = kin.twist_to_wheel_speeds(v, w, r, sep)[..., ::-1]
+    return wheels * i / (2 * np.pi) * np.array([1.0, left_sign])
+
+
+def _twist_node_no_gear(v: float, w: float, r: float, sep: float, i: float,
+                        left_sign: float) -> Any:
+    return kin.twist_to_motor_speeds(v, w, r, sep, 1.0, left_sign)
+
+
+def _twist_node_rad_per_s(v: float, w: float, r: float, sep: float, i: float,
+                          left_sign: float) -> Any:
+    return kin.twist_to_motor_speeds(v, w, r, sep, i, left_sign) * 2 * np.pi
+
+
 twist_to_motor_speeds = Exercise(
     id="lab01.twist_to_motor_speeds", function="twist_to_motor_speeds",
     title="Find the bug: the twist node (erratum 6)",
@@ -215,7 +301,15 @@ twist_to_motor_speeds = Exercise(
         Diagnostic("the forward kinematics (erratum 6)", _twist_node_forward,
                    "the twist node needs the inverse kinematics: phi = (v ± b ω) / r"),
         Diagnostic("ignoring the mirrored left motor", _twist_node_no_sign,
-                   "multiply the left command by left_sign"),
+                   "the mirrored left motor must turn backwards for a forward wheel: multiply "
+                   "its command by left_sign"),
+        Diagnostic("swapped wheels", _twist_node_swapped,
+                   "the commands are (right, left): the right wheel's (v + b ω) / r first, and "
+                   "left_sign on the second"),
+        Diagnostic("forgetting the gearbox", _twist_node_no_gear,
+                   "the motor turns gear_ratio times per wheel turn: multiply by gear_ratio"),
+        Diagnostic("rad/s instead of turns/s", _twist_node_rad_per_s,
+                   "the ODrive takes turns per second: divide rad/s by 2π"),
     ),
     blocked=_BLOCKED,
 )
@@ -229,8 +323,14 @@ def _igv_hidden(rng: np.random.Generator) -> list[Case]:
 
 
 def _igv_swapped(v: float, w: float) -> Any:
-    uL, uR = kin.igv_wheel_rpm(v, w)
-    return uR, uL
+    """(u_L, u_R) as the paper writes them; the same numbers as flipping ω's sign."""
+    uR, uL = kin.igv_wheel_rpm(v, w)
+    return uL, uR
+
+
+def _igv_rad_per_s(v: float, w: float) -> Any:
+    uR, uL = kin.igv_wheel_rpm(v, w)
+    return uR * 2 * np.pi / 60, uL * 2 * np.pi / 60
 
 
 igv_wheel_rpm = Exercise(
@@ -239,8 +339,11 @@ igv_wheel_rpm = Exercise(
     public=(Case("1 m/s straight", (1.0, 0.0)), Case("spin at 1 rad/s", (0.0, 1.0)),
             Case("arc", (0.5, -0.3))),
     hidden=_igv_hidden,
-    diagnostics=(Diagnostic("swapped wheels", _igv_swapped,
-                            "return (u_L, u_R): left first, as the IGV paper writes them"),),
+    diagnostics=(Diagnostic("(u_L, u_R): the paper's order, or ω's sign flipped", _igv_swapped,
+                            "return (u_R, u_L), right first as every wheel pair in the kit, "
+                            "with u_R = (4000 v + 1440 ω) / 67"),
+                 Diagnostic("rad/s instead of RPM", _igv_rad_per_s,
+                            "the IGV's equations give revolutions per minute: u = 60 φ̇ / (2π)")),
     blocked=_BLOCKED,
 )
 
@@ -259,6 +362,10 @@ def _units_counts_only(rpm: float, counts_per_rev: int = 400) -> Any:
     return round(rpm * counts_per_rev / 60)
 
 
+def _units_paper_factor(rpm: float, counts_per_rev: int = 400) -> Any:
+    return round(rpm * 43.7)
+
+
 rpm_to_drive_units = Exercise(
     id="lab01.rpm_to_drive_units", function="rpm_to_drive_units",
     title="The IGV drive's velocity units",
@@ -271,6 +378,8 @@ rpm_to_drive_units = Exercise(
                    "round to the nearest unit: 436.9 becomes 437, not 436"),
         Diagnostic("counts/s without the drive's scaling", _units_counts_only,
                    "multiply counts/s by 2**17 / 20000"),
+        Diagnostic("the paper's rounded factor 43.7", _units_paper_factor,
+                   "400 / 60 · 2**17 / 20000 = 43.69…: compute the factor, do not round it"),
     ),
     blocked=_BLOCKED,
 )
@@ -289,13 +398,20 @@ def _radius_inverted(v: float, w: float) -> Any:
     return w / v if v else math.inf
 
 
+def _radius_wrong_side(v: float, w: float) -> Any:
+    return -kin.turning_radius(v, w)
+
+
 turning_radius = Exercise(
     id="lab01.turning_radius", function="turning_radius", title="Turning radius",
     reference=kin.turning_radius, points=2,
     public=(Case("left arc", (1.0, 0.5)), Case("right arc", (1.0, -0.5)),
             Case("straight", (0.5, 0.0)), Case("spin in place", (0.0, 1.0))),
     hidden=_radius_hidden,
-    diagnostics=(Diagnostic("ω / v", _radius_inverted, "R = v / ω"),),
+    diagnostics=(Diagnostic("ω / v", _radius_inverted, "R = v / ω"),
+                 Diagnostic("the centre on the wrong side", _radius_wrong_side,
+                            "a left (counter-clockwise) turn has its centre at +y: R = v / ω > 0 "
+                            "(REP-103), and straight ahead is +inf")),
     blocked=_BLOCKED,
 )
 

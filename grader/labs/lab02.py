@@ -12,9 +12,10 @@ from grader.spec import Case, Diagnostic, Exercise, LabSpec
 from kit import geometry, msgs
 from kit import odometry as odo
 
-_BLOCKED = tuple(f"kit.odometry:{name}" for name in (
-    "conversion_factor", "tick_delta", "ticks_to_travel", "odometry_step", "eddie_odometry_step",
-    "integrate_odometry", "odom_transform", "odometry_message")) + (
+_BLOCKED = (
+    *(f"kit.odometry:{name}" for name in (
+        "conversion_factor", "tick_delta", "ticks_to_travel", "odometry_step",
+        "eddie_odometry_step", "integrate_odometry", "odom_transform", "odometry_message")),
     "kit.geometry:yaw_to_quaternion", "kit.geometry:compose")
 
 EDDIE_L = 0.39
@@ -36,6 +37,10 @@ def _cm_radius(d: float, n: float, ce: float) -> Any:
     return math.pi * d / 2 / (n * ce)
 
 
+def _cm_no_gear(d: float, n: float, ce: float) -> Any:
+    return math.pi * d / ce
+
+
 conversion_factor = Exercise(
     id="lab02.conversion_factor", function="conversion_factor", title="Ticks to metres",
     reference=odo.conversion_factor, points=2,
@@ -47,6 +52,9 @@ conversion_factor = Exercise(
                    "one wheel turn rolls pi * D: the factor needs pi"),
         Diagnostic("the radius in place of the diameter", _cm_radius,
                    "D is the wheel diameter"),
+        Diagnostic("forgetting the gear ratio", _cm_no_gear,
+                   "an encoder on the motor counts n C_e per wheel turn: divide by the gear "
+                   "ratio n too"),
     ),
     blocked=_BLOCKED,
 )
@@ -68,6 +76,10 @@ def _ticks_plain(prev: int, cur: int, bits: int = 16) -> Any:
     return cur - prev
 
 
+def _ticks_never_negative(prev: int, cur: int, bits: int = 16) -> Any:
+    return (cur - prev) % 2**bits
+
+
 tick_delta = Exercise(
     id="lab02.tick_delta", function="tick_delta", title="Encoder counter roll-over",
     reference=odo.tick_delta, points=2,
@@ -77,7 +89,11 @@ tick_delta = Exercise(
     hidden=_ticks_hidden,
     diagnostics=(Diagnostic("a plain difference", _ticks_plain,
                             "the counter wraps modulo 2**counter_bits: take the increment of "
-                            "smallest magnitude"),),
+                            "smallest magnitude"),
+                 Diagnostic("the increment modulo 2**bits, never negative",
+                            _ticks_never_negative,
+                            "a wheel turning backwards counts down: an increment of more than "
+                            "half the range is a negative one (subtract 2**counter_bits)")),
     blocked=_BLOCKED,
 )
 
@@ -103,6 +119,13 @@ def _eddie_not_wrapped(pose: Any, dr: float, dl: float, sep: float) -> Any:
     return np.array([p[0] + ds * math.cos(theta), p[1] + ds * math.sin(theta), theta])
 
 
+def _eddie_degrees(pose: Any, dr: float, dl: float, sep: float) -> Any:
+    p = np.asarray(pose, float)
+    theta = p[2] + math.degrees((dr - dl) / sep)
+    ds = (dr + dl) / 2
+    return np.array([p[0] + ds * math.cos(theta), p[1] + ds * math.sin(theta), theta])
+
+
 eddie_odometry_step = Exercise(
     id="lab02.eddie_odometry_step", function="eddie_odometry_step",
     title="Find the bug: Eddie's odometry update (erratum 7)",
@@ -117,6 +140,8 @@ eddie_odometry_step = Exercise(
                    "counter-clockwise: use (right - left)"),
         Diagnostic("an unwrapped heading", _eddie_not_wrapped,
                    "wrap the heading with wrap_angle to [-π, π)"),
+        Diagnostic("the heading change in degrees", _eddie_degrees,
+                   "(Δs_r − Δs_l) / L is already in radians: no degrees"),
     ),
     blocked=_BLOCKED,
 )
@@ -126,6 +151,20 @@ eddie_odometry_step = Exercise(
 
 def _arc_euler(pose: Any, dr: float, dl: float, sep: float) -> Any:
     return odo.odometry_step(pose, dr, dl, sep, method="euler")
+
+
+def _arc_midpoint(pose: Any, dr: float, dl: float, sep: float) -> Any:
+    return odo.odometry_step(pose, dr, dl, sep, method="midpoint")
+
+
+def _arc_swapped(pose: Any, dr: float, dl: float, sep: float) -> Any:
+    return odo.odometry_step(pose, dl, dr, sep)
+
+
+def _arc_unwrapped(pose: Any, dr: float, dl: float, sep: float) -> Any:
+    p = odo.odometry_step(pose, dr, dl, sep)
+    p[2] = float(np.asarray(pose, float)[2]) + (dr - dl) / sep
+    return p
 
 
 def _arc_hidden(rng: np.random.Generator) -> list[Case]:
@@ -141,10 +180,19 @@ exact_arc_step = Exercise(
     public=(Case("quarter circle", ([0.0, 0.0, 0.0], math.pi / 4 * 1.2, math.pi / 4 * 0.8, 0.4)),
             Case("straight (Δθ = 0)", ([1.0, 1.0, 1.0], 0.3, 0.3, EDDIE_L)),
             Case("backwards arc", ([0.0, 0.0, -2.0], -0.2, -0.1, EDDIE_L)),
-            Case("spin in place", ([0.0, 0.0, 0.0], 0.2, -0.2, EDDIE_L))),
+            Case("spin in place", ([0.0, 0.0, 0.0], 0.2, -0.2, EDDIE_L)),
+            Case("turning through ±π", ([0.5, -1.0, 3.0], 0.3, 0.1, EDDIE_L))),
     hidden=_arc_hidden,
     diagnostics=(Diagnostic("Euler integration", _arc_euler,
-                            "move along the arc: chord Δs·sin(Δθ/2)/(Δθ/2) at heading θ + Δθ/2"),),
+                            "move along the arc: chord Δs·sin(Δθ/2)/(Δθ/2) at heading θ + Δθ/2"),
+                 Diagnostic("the mean heading without the chord factor", _arc_midpoint,
+                            "the arc's chord is shorter than Δs: multiply by "
+                            "sin(Δθ/2)/(Δθ/2) (np.sinc(Δθ / (2π)))"),
+                 Diagnostic("an unwrapped heading", _arc_unwrapped,
+                            "wrap θ + Δθ with wrap_angle to [-π, π)"),
+                 Diagnostic("the wheels swapped", _arc_swapped,
+                            "Δθ = (Δs_r − Δs_l) / L, right minus left: a right wheel that "
+                            "rolls further turns the robot counter-clockwise")),
     blocked=_BLOCKED,
 )
 
@@ -159,6 +207,10 @@ def _path_not_accumulated(d_right: Any, d_left: Any, sep: float) -> Any:
     steps = [odo.odometry_step([0.0, 0.0, 0.0], r, left, sep)
              for r, left in zip(d_right, d_left, strict=True)]
     return np.vstack([np.zeros(3), *steps])
+
+
+def _path_euler(d_right: Any, d_left: Any, sep: float) -> Any:
+    return odo.integrate_odometry(d_right, d_left, sep, method="euler")
 
 
 def _path_hidden(rng: np.random.Generator) -> list[Case]:
@@ -176,7 +228,9 @@ integrate_path = Exercise(
                             np.r_[np.full(10, 0.01), np.full(10, 0.03)], EDDIE_L))),
     hidden=_path_hidden,
     diagnostics=(Diagnostic("the paper's pose update (erratum 2)", _path_not_accumulated,
-                            "each step must start from the previous pose: x += ..., θ += ..."),),
+                            "each step must start from the previous pose: x += ..., θ += ..."),
+                 Diagnostic("Euler steps in place of the arc", _path_euler,
+                            "accumulate with your exact_arc_step, not a first-order step")),
     blocked=_BLOCKED,
 )
 
@@ -191,6 +245,11 @@ def _quat_wxyz(theta: float) -> Any:
     return np.array([math.cos(theta / 2), 0.0, 0.0, math.sin(theta / 2)])
 
 
+def _quat_degrees(theta: float) -> Any:
+    half = math.radians(theta) / 2
+    return np.array([0.0, 0.0, math.sin(half), math.cos(half)])
+
+
 yaw_to_quaternion = Exercise(
     id="lab02.yaw_to_quaternion", function="yaw_to_quaternion", title="Heading as a quaternion",
     reference=geometry.yaw_to_quaternion, points=2,
@@ -201,6 +260,8 @@ yaw_to_quaternion = Exercise(
     diagnostics=(
         Diagnostic("the full angle", _quat_full_angle, "a quaternion holds sin and cos of θ/2"),
         Diagnostic("(w, x, y, z) order", _quat_wxyz, "ROS orders quaternions (x, y, z, w)"),
+        Diagnostic("θ taken as degrees", _quat_degrees,
+                   "θ is already in radians: no math.radians"),
     ),
     blocked=_BLOCKED,
 )

@@ -10,10 +10,10 @@ import numpy as np
 
 from grader.spec import Case, Diagnostic, Exercise, LabSpec
 from kit import kinematics
-from kit.geometry import wrap_angle
 from kit.drivers import checksums, dpralte, os5000, rplidar
 from kit.drivers import odrive as odrive_driver
 from kit.drivers.errors import DriverError
+from kit.geometry import wrap_angle
 from kit.robots import load as load_robot
 
 _BLOCKED = (
@@ -150,6 +150,16 @@ def _compass_negated(line: str) -> Any:
     return None if r is None else (*r[:3], float(wrap_angle(-math.radians(r[0]))))
 
 
+def _compass_yaw_degrees(line: str) -> Any:
+    r = _compass(line)
+    return None if r is None else (*r[:3], math.degrees(r[3]))
+
+
+def _compass_unwrapped(line: str) -> Any:
+    r = _compass(line)
+    return None if r is None else (*r[:3], math.pi / 2 - math.radians(r[0]))
+
+
 def _compass_hidden(rng: np.random.Generator) -> list[Case]:
     from kit.drivers.checksums import nmea_checksum
 
@@ -183,6 +193,11 @@ parse_compass = Exercise(
         Diagnostic("yaw = −heading", _compass_negated,
                    "clockwise → counter-clockwise is only half of it: 0° heading is north, "
                    "which is +π/2 in REP-103"),
+        Diagnostic("the yaw in degrees", _compass_yaw_degrees,
+                   "heading, pitch and roll stay in degrees as the compass sends them, but "
+                   "the yaw is REP-103's: radians"),
+        Diagnostic("an unwrapped yaw", _compass_unwrapped,
+                   "π/2 − heading reaches −3π/2 for headings past 270°: wrap it to [-π, π)"),
     ),
     blocked=_BLOCKED,
 )

@@ -31,6 +31,12 @@ def _motor_no_gear(R: float, L: float, kt: float, ke: float, J: float, b: float,
     return ctl.transfer_coefficients(R, L, kt, ke, J, b, 1.0)
 
 
+def _motor_lowest_first(R: float, L: float, kt: float, ke: float, J: float, b: float,
+                        N: float) -> Any:
+    num, den = ctl.transfer_coefficients(R, L, kt, ke, J, b, N)
+    return num, den[::-1]
+
+
 transfer_coefficients = Exercise(
     id="lab04.transfer_coefficients", function="transfer_coefficients",
     title="The motor's transfer function", reference=ctl.transfer_coefficients, points=2,
@@ -38,7 +44,10 @@ transfer_coefficients = Exercise(
                                                             1e-5, 1.0))),
     hidden=_motor_hidden, rtol=1e-9, atol=1e-15,
     diagnostics=(Diagnostic("forgetting the gearbox", _motor_no_gear,
-                            "the output is the wheel: divide the motor speed by N"),),
+                            "the output is the wheel: divide the motor speed by N"),
+                 Diagnostic("the denominator lowest power first", _motor_lowest_first,
+                            "python-control wants the highest power of s first: "
+                            "[J L, J R + b L, b R + K_t K_e]")),
     blocked=_BLOCKED,
 )
 
@@ -57,6 +66,11 @@ def _pi_windup(kp: float, ki: float, dt: float, integral: float, setpoint: float
     gains = ctl.PIDGains(kp=kp, ki=ki, dt=dt, output_limits=(low, high), anti_windup="none")
     out, state = ctl.pid_step(gains, ctl.PIDState(integral=integral), setpoint, measurement)
     return out, state.integral
+
+
+def _pi_no_dt(kp: float, ki: float, dt: float, integral: float, setpoint: float,
+              measurement: float, low: float, high: float) -> Any:
+    return _pi_reference(kp, ki, 1.0, integral, setpoint, measurement, low, high)
 
 
 def _pi_hidden(rng: np.random.Generator) -> list[Case]:
@@ -81,7 +95,9 @@ pi_step = Exercise(
     hidden=_pi_hidden,
     diagnostics=(Diagnostic("no anti-windup", _pi_windup,
                             "while the output is saturated and the error pushes further, "
-                            "keep the integral where it was"),),
+                            "keep the integral where it was"),
+                 Diagnostic("the integral without dt", _pi_no_dt,
+                            "the integral grows by K_i e Δt per step: multiply by dt")),
     blocked=_BLOCKED,
 )
 
@@ -112,11 +128,16 @@ def _figures_hidden(rng: np.random.Generator) -> list[Case]:
 
 
 def _figures_0_100(time: Any, response: Any, setpoint: float) -> Any:
-    rise, over, settle, err = _figures(time, response, setpoint)
+    _rise, over, settle, err = _figures(time, response, setpoint)
     t = np.asarray(time)
     y = np.asarray(response)
     reach = float(t[int(np.argmax(y >= y[-1]))] - t[0])
     return reach, over, settle, err
+
+
+def _figures_fraction(time: Any, response: Any, setpoint: float) -> Any:
+    rise, over, settle, err = _figures(time, response, setpoint)
+    return rise, over / 100, settle, err
 
 
 step_figures = Exercise(
@@ -127,7 +148,9 @@ step_figures = Exercise(
             _figures_case("with a steady-state error", 8.0, 0.6, 0.9, 1.0)),
     hidden=_figures_hidden, rtol=1e-6, atol=1e-9,
     diagnostics=(Diagnostic("0 → 100 % rise time", _figures_0_100,
-                            "the rise time runs from 10 % to 90 % of the final value"),),
+                            "the rise time runs from 10 % to 90 % of the final value"),
+                 Diagnostic("the overshoot as a fraction", _figures_fraction,
+                            "the overshoot is in percent: (max − final) / final × 100")),
     blocked=_BLOCKED,
 )
 
@@ -169,6 +192,10 @@ def _zn_pi_row(ku: float, tu: float) -> Any:
     return g.kp, g.ki, 0.0
 
 
+def _zn_time_constants(ku: float, tu: float) -> Any:
+    return 0.6 * ku, tu / 2, tu / 8
+
+
 ziegler_nichols = Exercise(
     id="lab04.ziegler_nichols", function="ziegler_nichols_pid",
     title="Ziegler–Nichols PID", reference=_zn, points=2,
@@ -176,7 +203,9 @@ ziegler_nichols = Exercise(
     hidden=lambda rng: [Case(f"loop {i}", (float(rng.uniform(0.5, 100)),
                                             float(rng.uniform(0.01, 5)))) for i in range(3)],
     diagnostics=(Diagnostic("the PI row", _zn_pi_row,
-                            "the PID row: Kp = 0.6 Ku, Ti = Tu / 2, Td = Tu / 8"),),
+                            "the PID row: Kp = 0.6 Ku, Ti = Tu / 2, Td = Tu / 8"),
+                 Diagnostic("T_i and T_d in place of K_i and K_d", _zn_time_constants,
+                            "the gains are K_i = K_p / T_i and K_d = K_p T_d, not the times")),
     blocked=_BLOCKED,
 )
 
@@ -185,6 +214,10 @@ ziegler_nichols = Exercise(
 
 def _cascade_unlimited(setpoint: float, speed: float, gain: float, max_acc: float) -> float:
     return gain * (setpoint - speed)
+
+
+def _cascade_sign(setpoint: float, speed: float, gain: float, max_acc: float) -> float:
+    return float(ctl.cascade_acceleration(speed, setpoint, gain, max_acc))
 
 
 cascade_acceleration = Exercise(
@@ -196,7 +229,10 @@ cascade_acceleration = Exercise(
                                               float(rng.uniform(1, 10)),
                                               float(rng.uniform(0.2, 2)))) for i in range(4)],
     diagnostics=(Diagnostic("no acceleration limit", _cascade_unlimited,
-                            "limit the desired acceleration to ±max_acceleration"),),
+                            "limit the desired acceleration to ±max_acceleration"),
+                 Diagnostic("the error the wrong way round", _cascade_sign,
+                            "the error is set-point minus speed: a robot slower than asked "
+                            "must accelerate")),
     blocked=_BLOCKED,
 )
 

@@ -31,9 +31,14 @@ def _kf_predict_transposed(x: Any, P: Any, F: Any, Q: Any) -> Any:
     return Fa @ np.asarray(x, float), Fa.T @ np.asarray(P, float) @ Fa + np.asarray(Q, float)
 
 
+def _kf_predict_no_q(x: Any, P: Any, F: Any, Q: Any) -> Any:
+    Fa = np.asarray(F, float)
+    return Fa @ np.asarray(x, float), Fa @ np.asarray(P, float) @ Fa.T
+
+
 def _predict_hidden(rng: np.random.Generator) -> list[Case]:
     cases = []
-    for i in range(3):
+    for _i in range(3):
         n = int(rng.integers(2, 5))
         cases.append(Case(f"random {n}-state", (rng.normal(0, 1, n), _spd(rng, n),
                                                 np.eye(n) + rng.normal(0, 0.2, (n, n)),
@@ -50,8 +55,10 @@ kf_predict = Exercise(
             Case("correlated", (np.array([1.0, -0.5]), np.array([[2.0, 0.3], [0.3, 0.5]]), CV,
                                 np.diag([0.01, 0.01])))),
     hidden=_predict_hidden, rtol=1e-9, atol=1e-12,
-    diagnostics=(Diagnostic("a transposed Jacobian", _kf_predict_transposed,
-                            "P⁻ = F P Fᵀ + Q, with F on the left"),),
+    diagnostics=(Diagnostic("F transposed in the covariance", _kf_predict_transposed,
+                            "P⁻ = F P Fᵀ + Q, with F on the left"),
+                 Diagnostic("forgetting Q", _kf_predict_no_q,
+                            "the prediction adds the process noise: P⁻ = F P Fᵀ + Q")),
     blocked=_BLOCKED,
 )
 
@@ -73,12 +80,39 @@ def _update_no_s(x: Any, P: Any, z: Any, H: Any, R: Any) -> Any:
     return x_new, I_KH @ Pa @ I_KH.T + K @ np.atleast_2d(R) @ K.T
 
 
+def _update_short_form(x: Any, P: Any, z: Any, H: Any, R: Any) -> Any:
+    """The short form P⁺ = (I − K H) P⁻, exact only in exact arithmetic with the optimal K."""
+    Ha = np.atleast_2d(np.asarray(H, float))
+    Pa = np.asarray(P, float)
+    xa = np.asarray(x, float)
+    S = Ha @ Pa @ Ha.T + np.atleast_2d(np.asarray(R, float))
+    K = Pa @ Ha.T @ np.linalg.inv(S)
+    return xa + K @ (np.asarray(z, float) - Ha @ xa), (np.eye(len(xa)) - K @ Ha) @ Pa
+
+
+def _precise_measurement(rng: np.random.Generator | None = None) -> Case:
+    """A position measured 2⁵³ times more precisely than it was known: S = P + R rounds to P,
+    K to 1 and I − K H to 0, and the short form's P⁺ loses the measured variance (≈ R).
+    The public case uses powers of two, so that K is exactly 1 whether S is inverted or
+    solved for."""
+    if rng is None:
+        p, r, q, c = 2.0**26, 2.0**-27, 1.0, 0.0
+    else:
+        p, r = float(rng.uniform(0.5, 2)) * 1e8, float(rng.uniform(0.5, 2)) * 1e-8
+        q = float(rng.uniform(0.5, 2))
+        c = float(rng.uniform(-0.5, 0.5)) * (p * q) ** 0.5
+    return Case("a measurement far more precise than the prior",
+                (np.array([0.0, 1.0]), np.array([[p, c], [c, q]]), np.array([0.3]),
+                 np.array([[1.0, 0.0]]), np.array([[r]])))
+
+
 def _update_hidden(rng: np.random.Generator) -> list[Case]:
     cases = []
     for i in range(3):
         n, m = 3, int(rng.integers(1, 3))
         cases.append(Case(f"random {i}", (rng.normal(0, 1, n), _spd(rng, n), rng.normal(0, 1, m),
                                           rng.normal(0, 1, (m, n)), _spd(rng, m))))
+    cases.append(_precise_measurement(rng))
     return cases
 
 
@@ -88,10 +122,15 @@ joseph_update = Exercise(
     public=(Case("position measured", (np.array([0.0, 1.0]), np.eye(2), np.array([0.3]),
                                        np.array([[1.0, 0.0]]), np.array([[0.25]]))),
             Case("both measured", (np.array([1.0, 0.0]), np.diag([2.0, 1.0]),
-                                   np.array([1.5, 0.2]), np.eye(2), np.diag([0.5, 0.1])))),
+                                   np.array([1.5, 0.2]), np.eye(2), np.diag([0.5, 0.1]))),
+            _precise_measurement()),
     hidden=_update_hidden, rtol=1e-9, atol=1e-12,
     diagnostics=(Diagnostic("a gain without S", _update_no_s,
-                            "K = P Hᵀ S⁻¹ with S = H P Hᵀ + R, not R alone"),),
+                            "K = P Hᵀ S⁻¹ with S = H P Hᵀ + R, not R alone"),
+                 Diagnostic("the short form (I − K H) P", _update_short_form,
+                            "when K H rounds to I the short form's P⁺ is rounding noise (0 "
+                            "here) instead of about R, and no longer positive definite; the "
+                            "Joseph form (I − K H) P (I − K H)ᵀ + K R Kᵀ keeps R's share")),
     blocked=_BLOCKED,
 )
 
@@ -106,15 +145,22 @@ def _angle_plain(z: float, z_hat: float) -> float:
     return z - z_hat
 
 
+def _angle_wrapped_to_2pi(z: float, z_hat: float) -> float:
+    return (z - z_hat) % (2 * np.pi)
+
+
 angle_residual = Exercise(
     id="lab05.angle_residual", function="angle_residual", title="Angle-aware residuals",
     reference=_angle_residual, points=2,
-    public=(Case("small", (0.3, 0.1)), Case("across ±π", (3.1, -3.1)),
+    public=(Case("small", (0.3, 0.1)), Case("small, negative", (0.1, 0.3)),
+            Case("across ±π", (3.1, -3.1)),
             Case("the other way", (-3.1, 3.1)), Case("several turns", (7.0, 0.0))),
     hidden=lambda rng: [Case(f"random {i}", (float(rng.uniform(-10, 10)),
                                               float(rng.uniform(-4, 4)))) for i in range(5)],
     diagnostics=(Diagnostic("an unwrapped difference", _angle_plain,
-                            "wrap the difference to [-π, π)"),),
+                            "wrap the difference to [-π, π)"),
+                 Diagnostic("a difference wrapped to [0, 2π)", _angle_wrapped_to_2pi,
+                            "a residual is signed: wrap to [-π, π), not [0, 2π)")),
     blocked=_BLOCKED,
 )
 
@@ -133,7 +179,9 @@ nis_exercise = Exercise(
     hidden=_nis_hidden, rtol=1e-9,
     diagnostics=(Diagnostic("yᵀ S y", lambda y, S: float(np.asarray(y) @ np.asarray(S) @
                                                            np.asarray(y)),
-                            "the innovation is weighed by the inverse of S"),),
+                            "the innovation is weighed by the inverse of S"),
+                 Diagnostic("the Mahalanobis distance", lambda y, S: est.nis(y, S) ** 0.5,
+                            "the NIS is the squared distance yᵀ S⁻¹ y: no square root")),
     blocked=_BLOCKED,
 )
 
@@ -148,6 +196,12 @@ def _jacobian_t(x: Any, dt: float) -> Any:
     return _jacobian(x, dt).T
 
 
+def _jacobian_x_yaw_sign(x: Any, dt: float) -> Any:
+    F = _jacobian(x, dt)
+    F[0, 2] = -F[0, 2]
+    return F
+
+
 planar_jacobian = Exercise(
     id="lab05.planar_jacobian", function="planar_jacobian", title="The motion model's Jacobian",
     reference=_jacobian, points=3,
@@ -157,7 +211,9 @@ planar_jacobian = Exercise(
                         for i in range(3)],
     rtol=1e-9, atol=1e-12,
     diagnostics=(Diagnostic("a transposed Jacobian", _jacobian_t,
-                            "row i holds the derivatives of state i"),),
+                            "row i holds the derivatives of state i"),
+                 Diagnostic("∂x'/∂ψ with the wrong sign", _jacobian_x_yaw_sign,
+                            "x' = x + s cos ψ, so ∂x'/∂ψ = −s sin ψ")),
     blocked=_BLOCKED,
 )
 

@@ -199,7 +199,7 @@ class IgvBase:
     def wheel_rpm(self, cmd: msgs.Twist | tuple[float, float]) -> tuple[float, float]:
         """(right, left) RPM by the paper's eq. 7, scaled down together to the 110 RPM limit."""
         v, w = _twist(cmd)
-        u_left, u_right = (float(u) for u in kinematics.igv_wheel_rpm(v, w))
+        u_right, u_left = (float(u) for u in kinematics.igv_wheel_rpm(v, w))
         limit = self.robot.max_wheel_speed * 60.0 / (2 * math.pi)
         scale = max(abs(u_left), abs(u_right)) / limit
         if scale > 1.0:

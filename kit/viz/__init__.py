@@ -2,17 +2,25 @@
 the axes; nothing here calls ``plt.show()``. Importing this package imports matplotlib, which
 ``import kit`` does not.
 
-One private module per topic: ``_robot`` (the robot, paths, wheels), ``_estimation`` (errors
-against the truth); the labs of the think half add theirs beside them.
+One private module per topic: ``_robot`` (the robot, paths, wheels), ``_drivers`` (what the
+drivers read), ``_control`` (signals over time, step responses), ``_estimation`` (errors
+against the truth, filters); the labs of the think half add theirs beside them.
 """
 
-from kit.viz._estimation import plot_odometry_drift
+from kit.viz._control import plot_signals, plot_step_response
+from kit.viz._drivers import plot_lidar_turn
+from kit.viz._estimation import plot_headings, plot_kalman_track, plot_odometry_drift
 from kit.viz._robot import plot_icc, plot_robot, plot_trajectories, plot_wheel_commands
 
 __all__ = [
+    "plot_headings",
     "plot_icc",
+    "plot_kalman_track",
+    "plot_lidar_turn",
     "plot_odometry_drift",
     "plot_robot",
+    "plot_signals",
+    "plot_step_response",
     "plot_trajectories",
     "plot_wheel_commands",
 ]

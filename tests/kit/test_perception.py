@@ -10,7 +10,7 @@ from sim import Simulation
 def test_points_of_a_simulated_scan_lie_on_the_walls_the_simulator_sees():
     sim = Simulation(world="square", robot="uiabot", seed=3, start=[2.0, 5.0, 0.3])
     scan = next(m for _ in range(200) for t, m in sim.step((0.0, 0.0)) if t.endswith("scan"))
-    robot = sim.robots[0].description
+    robot = sim.description()
     laser = robot.joint("laser_joint")
     T_base_laser = [laser.xyz[0], laser.xyz[1], laser.rpy[2]]
     pose = sim.ground_truth().pose  # still standing: no motion distortion

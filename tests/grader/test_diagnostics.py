@@ -1,0 +1,583 @@
+"""The diagnostics catalogue: for every exercise of Labs 01-05, each classic mistake that
+applies to it, written here as a student would write it, must get exactly its hint.
+
+A buggy variant is run on the exercise's public cases and on seeded hidden cases, and judged
+as the notebook's check does (``grader.checker.explain``). For every case it fails, the hints
+given must name its mistake and nothing else — no other mistake of the exercise (unless the
+catalogue declares the two give the same numbers on that case) and no generic hint — and at
+least one failing public case must name it alone.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from grader.checker import explain
+from grader.spec import load_lab
+from kit import msgs
+
+LABS = ("lab01", "lab02", "lab03", "lab04", "lab05")
+HIDDEN_SEEDS = (1, 2)
+DIAG = re.compile(r"this is what (.+?) gives: ")
+
+
+def hints(exercise, case, fn) -> set[str] | None:
+    """None when ``fn`` passes ``case``, else the names of the hints its output gets."""
+    got = fn(*case.args, **case.kwargs)
+    verdict = explain(exercise, case, got)
+    if verdict is None:
+        return None
+    problem, hint = verdict
+    names = set(DIAG.findall(hint))
+    if not hint and "; hint: " in problem:
+        names.add("generic: " + problem.split("; hint: ", 1)[1])
+    return names
+
+
+# ------------------------------------------------------------------ lab 01 as students err
+
+def _A_B(r, b):
+    A = np.array([[1.0, 0, b], [1, 0, -b], [0, -1, 0], [0, -1, 0]])
+    B = np.array([[r, 0.0], [0, r], [0, 0], [0, 0]])
+    return A, B
+
+
+def _fk(phi, r, b, sign=1.0):
+    phi = np.asarray(phi, float)
+    return np.stack([r * (phi[..., 0] + phi[..., 1]) / 2, 0 * phi[..., 0],
+                     sign * r * (phi[..., 0] - phi[..., 1]) / (2 * b)], axis=-1)
+
+
+def _ik(xi, r, b):
+    xi = np.asarray(xi, float)
+    return np.stack([(xi[..., 0] + b * xi[..., 2]) / r, (xi[..., 0] - b * xi[..., 2]) / r],
+                    axis=-1)
+
+
+def _odom(m, r, sep, i, s, *, gear=True, two_pi=True, sign=True, swap=False, deg=False,
+          halve=True, paper=False):
+    m = np.asarray(m, float)
+    right, left = (m[..., 1], m[..., 0]) if swap else (m[..., 0], m[..., 1])
+    left = left * (s if sign else 1.0)
+    k = (2 * np.pi if two_pi else 1.0) / (i if gear else 1.0)
+    pr, pl = right * k, left * k
+    b = sep / 2 if halve else sep
+    v, w = r * (pr + pl) / 2, r * (pr - pl) / (2 * b)
+    if paper:
+        v, w = r * (pr - pl) / (2 * b), r * (pr + pl) / 2
+    return np.stack([v, np.degrees(w) if deg else w], axis=-1)
+
+
+def _twist(v, w, r, sep, i, s, *, sign=True, swap=False, gear=True, turns=True, forward=False):
+    b = sep / 2
+    if forward:
+        wheels = np.array([r / 2 * v + r / (2 * b) * w, r / 2 * v - r / (2 * b) * w])
+    else:
+        wheels = np.array([(v + b * w) / r, (v - b * w) / r])
+    if swap:
+        wheels = wheels[::-1]
+    wheels = wheels * (i if gear else 1.0) / (2 * np.pi if turns else 1.0)
+    return wheels * np.array([1.0, s if sign else 1.0])
+
+
+def _radius(v, w, flip=1.0):
+    if w == 0:
+        return math.inf if v >= 0 else -math.inf
+    return flip * v / w
+
+
+LAB01 = {
+    "constraint_matrices": [
+        ("b = the whole wheel separation", lambda r, sep: _A_B(r, sep)),
+        ("the left wheel's rolling row first",
+         lambda r, sep: (_A_B(r, sep / 2)[0][[1, 0, 2, 3]], _A_B(r, sep / 2)[1])),
+        ("A and B transposed", lambda r, sep: tuple(m.T for m in _A_B(r, sep / 2))),
+    ],
+    "forward_kinematics": [
+        ("swapped wheels or the paper's turn sign (erratum 5)",
+         lambda phi, r, sep: _fk(np.asarray(phi, float)[..., ::-1], r, sep / 2)),
+        ("swapped wheels or the paper's turn sign (erratum 5)",
+         lambda phi, r, sep: _fk(phi, r, sep / 2, sign=-1.0)),
+        ("b = the whole wheel separation", lambda phi, r, sep: _fk(phi, r, sep)),
+        ("θ̇ in degrees per second",
+         lambda phi, r, sep: _fk(phi, r, sep / 2) * np.array([1, 1, 180 / np.pi])),
+        ("the inverse kinematics' matrix B⁺A",
+         lambda phi, r, sep: np.asarray(phi, float) @ (np.linalg.pinv(_A_B(r, sep / 2)[1])
+                                                       @ _A_B(r, sep / 2)[0])),
+    ],
+    "inverse_kinematics": [
+        ("swapped wheels", lambda xi, r, sep: _ik(xi, r, sep / 2)[..., ::-1]),
+        ("the transposed forward matrix",
+         lambda xi, r, sep: np.asarray(xi, float) @ (np.linalg.pinv(_A_B(r, sep / 2)[0])
+                                                     @ _A_B(r, sep / 2)[1])),
+        ("b = the whole wheel separation", lambda xi, r, sep: _ik(xi, r, sep)),
+        ("turns per second", lambda xi, r, sep: _ik(xi, r, sep / 2) / (2 * np.pi)),
+    ],
+    "odometry_twist": [
+        ("the paper's odometry equations (erratum 1)", lambda *a: _odom(*a, paper=True)),
+        ("forgetting the gearbox", lambda *a: _odom(*a, gear=False)),
+        ("turns/s taken as rad/s", lambda *a: _odom(*a, two_pi=False)),
+        ("ignoring the mirrored left motor", lambda *a: _odom(*a, sign=False)),
+        ("the motors read (left, right)", lambda *a: _odom(*a, swap=True)),
+        ("ω in degrees per second", lambda *a: _odom(*a, deg=True)),
+        ("b = the whole wheel separation", lambda *a: _odom(*a, halve=False)),
+    ],
+    "twist_to_motor_speeds": [
+        ("the forward kinematics (erratum 6)", lambda *a: _twist(*a, forward=True)),
+        ("ignoring the mirrored left motor", lambda *a: _twist(*a, sign=False)),
+        ("swapped wheels", lambda *a: _twist(*a, swap=True)),
+        ("forgetting the gearbox", lambda *a: _twist(*a, gear=False)),
+        ("rad/s instead of turns/s", lambda *a: _twist(*a, turns=False)),
+    ],
+    "igv_wheel_rpm": [
+        ("(u_L, u_R): the paper's order, or ω's sign flipped",
+         lambda v, w: ((4000 * v - 1440 * w) / 67, (4000 * v + 1440 * w) / 67)),
+        ("rad/s instead of RPM",
+         lambda v, w: ((4000 * v + 1440 * w) / 67 * np.pi / 30,
+                       (4000 * v - 1440 * w) / 67 * np.pi / 30)),
+    ],
+    "rpm_to_drive_units": [
+        ("truncation", lambda rpm, cpr=400: int(rpm * cpr / 60 * 2**17 / 20000)),
+        ("counts/s without the drive's scaling", lambda rpm, cpr=400: round(rpm * cpr / 60)),
+        ("the paper's rounded factor 43.7", lambda rpm, cpr=400: round(rpm * 43.7)),
+    ],
+    "turning_radius": [
+        ("ω / v", lambda v, w: w / v if v else math.inf),
+        ("the centre on the wrong side", lambda v, w: _radius(v, w, -1.0) if w else
+         (-math.inf if v >= 0 else math.inf)),
+    ],
+    "saturate_wheel_speeds": [
+        ("clipping each wheel", lambda phi, m: np.clip(np.asarray(phi, float), -m, m)),
+    ],
+}
+
+# ------------------------------------------------------------------ lab 02
+
+
+def _eddie(pose, dr, dl, sep, *, paper=False, wrap=True, deg=False):
+    x, y, th = (float(v) for v in pose)
+    d = ((dl - dr) if paper else (dr - dl)) / sep
+    th = th + (math.degrees(d) if deg else d)
+    if wrap:
+        th = (th + math.pi) % (2 * math.pi) - math.pi
+    ds = (dr + dl) / 2
+    return np.array([x + ds * math.cos(th), y + ds * math.sin(th), th])
+
+
+def _arc(pose, dr, dl, sep, *, chord=True, mean_heading=True, wrap=True):
+    x, y, th = (float(v) for v in pose)
+    ds, dth = (dr + dl) / 2, (dr - dl) / sep
+    length = ds * np.sinc(dth / (2 * np.pi)) if chord else ds
+    heading = th + dth / 2 if mean_heading else th
+    new = th + dth
+    if wrap:
+        new = (new + math.pi) % (2 * math.pi) - math.pi
+    return np.array([x + length * math.cos(heading), y + length * math.sin(heading), new])
+
+
+def _path(d_right, d_left, sep, step, accumulate=True):
+    poses = [np.zeros(3)]
+    for dr, dl in zip(d_right, d_left, strict=True):
+        poses.append(step(poses[-1] if accumulate else np.zeros(3), dr, dl, sep))
+    return np.array(poses)
+
+
+def _odom_tf(pose, stamp, parent="odom", child="base_link"):
+    x, y, th = pose
+    return msgs.TransformStamped(
+        msgs.Header(stamp, parent), child,
+        msgs.Transform(msgs.Vector3(float(x), float(y), 0.0),
+                       msgs.Quaternion(0.0, 0.0, math.sin(th / 2), math.cos(th / 2))))
+
+
+LAB02 = {
+    "conversion_factor": [
+        ("the formula as printed, c_m = D / (n C_e)", lambda d, n, c: d / (n * c)),
+        ("the radius in place of the diameter", lambda d, n, c: math.pi * (d / 2) / (n * c)),
+        ("forgetting the gear ratio", lambda d, n, c: math.pi * d / c),
+    ],
+    "tick_delta": [
+        ("a plain difference", lambda p, c, bits: c - p),
+        ("the increment modulo 2**bits, never negative", lambda p, c, bits: (c - p) % 2**bits),
+    ],
+    "eddie_odometry_step": [
+        ("the paper's heading update (erratum 7)", lambda *a: _eddie(*a, paper=True)),
+        ("an unwrapped heading", lambda *a: _eddie(*a, wrap=False)),
+        ("the heading change in degrees", lambda *a: _eddie(*a, wrap=False, deg=True)),
+    ],
+    "exact_arc_step": [
+        ("Euler integration", lambda *a: _arc(*a, chord=False, mean_heading=False)),
+        ("the mean heading without the chord factor", lambda *a: _arc(*a, chord=False)),
+        ("an unwrapped heading", lambda *a: _arc(*a, wrap=False)),
+        ("the wheels swapped", lambda pose, dr, dl, sep: _arc(pose, dl, dr, sep)),
+    ],
+    "integrate_path": [
+        ("the paper's pose update (erratum 2)",
+         lambda dr, dl, sep: _path(dr, dl, sep, _arc, accumulate=False)),
+        ("Euler steps in place of the arc",
+         lambda dr, dl, sep: _path(dr, dl, sep, lambda *a: _arc(*a, chord=False,
+                                                                  mean_heading=False))),
+    ],
+    "yaw_to_quaternion": [
+        ("the full angle", lambda t: np.array([0.0, 0.0, math.sin(t), math.cos(t)])),
+        ("(w, x, y, z) order", lambda t: np.array([math.cos(t / 2), 0.0, 0.0, math.sin(t / 2)])),
+        ("θ taken as degrees", lambda t: np.array([0.0, 0.0, math.sin(math.radians(t) / 2),
+                                                   math.cos(math.radians(t) / 2)])),
+    ],
+    "make_odom_transform": [
+        ("parent and child swapped", lambda pose, stamp: _odom_tf(pose, stamp, "base_link",
+                                                                  "odom")),
+    ],
+}
+
+# ------------------------------------------------------------------ lab 03
+
+
+def _crc(data, init=0, reflect=False, swap=False):
+    crc = init
+    for byte in data:
+        if reflect:
+            crc ^= byte
+            for _ in range(8):
+                crc = (crc >> 1) ^ 0x8408 if crc & 1 else crc >> 1
+        else:
+            crc ^= byte << 8
+            for _ in range(8):
+                crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+    return ((crc & 0xFF) << 8) | (crc >> 8) if swap else crc
+
+
+def _frame(address, offset, rpm, sequence=0, *, crc_order="big", data_order="little",
+           factor=None, crc_from=0):
+    units = round(rpm * 43.7) if factor else round(rpm * 400 / 60 * 2**17 / 20000)
+    header = bytes([0xA5, address, 2 | (sequence << 2), 0x45, offset, 2])
+    data = units.to_bytes(4, data_order, signed=True)
+    return (header + _crc(header[crc_from:]).to_bytes(2, crc_order) + data +
+            _crc(data).to_bytes(2, crc_order))
+
+
+def _compass(line, yaw_of):
+    m = re.fullmatch(r"\$([^*$]*)\*([0-9A-Fa-f]{2})", line.strip())
+    if not m:
+        return None
+    body, given = m.groups()
+    check = 0
+    for ch in body:
+        check ^= ord(ch)
+    if check != int(given, 16) or not body.startswith("C"):
+        return None
+    f = dict(re.findall(r"(Mx|My|Mz|Ax|Ay|Az|[CPRTD])(-?\d+(?:\.\d+)?)", body))
+    if not all(k in f for k in "CPR"):
+        return None
+    heading = float(f["C"])
+    return heading, float(f["P"]), float(f["R"]), yaw_of(heading)
+
+
+def _wrap(a):
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def _nodes(data, step_on_miss=1, raw=False):
+    rows, i = [], 0
+    while i + 5 <= len(data):
+        b0, b1 = data[i], data[i + 1]
+        if ((b0 ^ (b0 >> 1)) & 1) and (b1 & 1):
+            angle = (b1 >> 1) | (data[i + 2] << 7)
+            dist = data[i + 3] | (data[i + 4] << 8)
+            rows.append([b0 & 1, b0 >> 2, angle if raw else angle / 64, dist if raw else
+                         dist / 4])
+            i += 5
+        else:
+            i += step_on_miss
+    return np.array(rows, dtype=float).reshape(-1, 4)
+
+
+PAPER_STATES = {0: "UNDEFINED", 1: "IDLE", 2: "STARTUP_SEQUENCE",
+                3: "FULL_CALIBRATION_SEQUENCE", 4: "MOTOR_CALIBRATION", 5: "SENSORLESS_CONTROL",
+                6: "ENCODER_INDEX_SEARCH", 7: "ENCODER_OFFSET_CALIBRATION",
+                8: "CLOSED_LOOP_CONTROL", 9: "LOCKIN_SPIN", 10: "ENCODER_DIR_FIND"}
+
+
+def _motors(v, w, *, mirror=True, turns=True, gear=True, clip_each=False):
+    r, b, limit = 0.05, 0.1805, 20.0  # hardware/robots/uiabot.toml
+    wheels = np.array([v + w * b, v - w * b]) / r
+    if clip_each:
+        wheels = np.clip(wheels, -limit, limit)
+    elif np.max(np.abs(wheels)) > limit:
+        wheels = wheels * limit / np.max(np.abs(wheels))
+    wheels = wheels * (20 if gear else 1) / (2 * math.pi if turns else 1)
+    return wheels * np.array([1.0, -1.0 if mirror else 1.0])
+
+
+LAB03 = {
+    "crc16_xmodem": [
+        ("CRC-16/CCITT-FALSE (initial value 0xFFFF)", lambda d: _crc(d, init=0xFFFF)),
+        ("the two result bytes swapped", lambda d: _crc(d, swap=True)),
+        ("CRC-16/KERMIT (bits reflected)", lambda d: _crc(d, reflect=True)),
+    ],
+    "velocity_frame": [
+        ("CRCs sent low byte first", lambda *a: _frame(*a, crc_order="little")),
+        ("the velocity sent big-endian", lambda *a: _frame(*a, data_order="big")),
+        ("RPM × 43.7", lambda *a: _frame(*a, factor=43.7)),
+        ("header CRC without the A5", lambda *a: _frame(*a, crc_from=1)),
+    ],
+    "parse_compass": [
+        ("the heading as yaw", lambda s: _compass(s, lambda h: _wrap(math.radians(h)))),
+        ("yaw = −heading", lambda s: _compass(s, lambda h: _wrap(-math.radians(h)))),
+        ("the yaw in degrees",
+         lambda s: _compass(s, lambda h: math.degrees(_wrap(math.pi / 2 - math.radians(h))))),
+        ("an unwrapped yaw", lambda s: _compass(s, lambda h: math.pi / 2 - math.radians(h))),
+    ],
+    "decode_nodes": [
+        ("whole 5-byte steps (no resynchronising)", lambda d: _nodes(d, step_on_miss=5)),
+        ("raw q6 angle and q2 distance", lambda d: _nodes(d, raw=True)),
+    ],
+    "axis_state_name": [
+        ("the paper's table for every firmware", lambda value, fw: PAPER_STATES.get(value)),
+    ],
+    "uiabot_motor_speeds": [
+        ("the left motor not mirrored", lambda v, w: _motors(v, w, mirror=False)),
+        ("rad/s instead of turns/s", lambda v, w: _motors(v, w, turns=False)),
+        ("wheel speed, not motor speed", lambda v, w: _motors(v, w, gear=False)),
+        ("each wheel clipped on its own", lambda v, w: _motors(v, w, clip_each=True)),
+    ],
+}
+
+# ------------------------------------------------------------------ lab 04
+
+
+def _tf(R, L, kt, ke, J, b, N, *, gear=True, reverse=False):
+    den = np.array([J * L, J * R + b * L, b * R + kt * ke])
+    return np.array([kt / (N if gear else 1.0)]), den[::-1] if reverse else den
+
+
+def _pi(kp, ki, dt, integral, r, y, low, high, *, clamp=True, use_dt=True):
+    e = r - y
+    new = integral + ki * e * (dt if use_dt else 1.0)
+    raw = kp * e + new
+    out = min(max(raw, low), high)
+    if clamp and out != raw and (raw - out) * e > 0:
+        new = integral
+        out = min(max(kp * e + new, low), high)
+    return out, new
+
+
+def _figures(t, y, setpoint, *, rise_from=0.1, rise_to=0.9, percent=100.0):
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    final = y[-1]
+
+    def cross(level):
+        i = int(np.argmax(y >= level))
+        if i == 0:
+            return t[0]
+        return t[i - 1] + (level - y[i - 1]) * (t[i] - t[i - 1]) / (y[i] - y[i - 1])
+
+    start = cross(rise_from * final) if rise_from else t[0]
+    rise = (cross(rise_to * final) if rise_to < 1 else t[int(np.argmax(y >= final))]) - start
+    over = max(0.0, (y.max() - final) / final * percent)
+    outside = np.flatnonzero(np.abs(y - final) > 0.02 * final)
+    settle = 0.0 if len(outside) == 0 else (t[outside[-1] + 1] - t[0] if outside[-1] + 1 < len(t)
+                                            else t[-1] - t[0])
+    return rise, over, settle, setpoint - final
+
+
+LAB04 = {
+    "transfer_coefficients": [
+        ("forgetting the gearbox", lambda *a: _tf(*a, gear=False)),
+        ("the denominator lowest power first", lambda *a: _tf(*a, reverse=True)),
+    ],
+    "pi_step": [
+        ("no anti-windup", lambda *a: _pi(*a, clamp=False)),
+        ("the integral without dt", lambda *a: _pi(*a, use_dt=False)),
+    ],
+    "step_figures": [
+        ("0 → 100 % rise time", lambda *a: _figures(*a, rise_from=0.0, rise_to=1.0)),
+        ("the overshoot as a fraction", lambda *a: _figures(*a, percent=1.0)),
+    ],
+    "pole_placement": [
+        ("dropping the plant's own damping",
+         lambda K, tau, wn, z: (2 * z * wn * tau / K, wn * wn * tau / K)),
+    ],
+    "ziegler_nichols_pid": [
+        ("the PI row", lambda ku, tu: (0.45 * ku, 0.45 * ku / (tu / 1.2), 0.0)),
+        ("T_i and T_d in place of K_i and K_d", lambda ku, tu: (0.6 * ku, tu / 2, tu / 8)),
+    ],
+    "cascade_acceleration": [
+        ("no acceleration limit", lambda r, v, k, a: k * (r - v)),
+        ("the error the wrong way round", lambda r, v, k, a: min(max(k * (v - r), -a), a)),
+    ],
+}
+
+# ------------------------------------------------------------------ lab 05
+
+
+def _update(x, P, z, H, R, *, gain="S", joseph=True):
+    x, P, z = (np.asarray(v, float) for v in (x, P, z))
+    H, R = np.atleast_2d(H), np.atleast_2d(R)
+    S = H @ P @ H.T + R
+    K = P @ H.T @ np.linalg.inv(S if gain == "S" else R)
+    x_new = x + K @ (z - H @ x)
+    I_KH = np.eye(len(x)) - K @ H
+    return x_new, (I_KH @ P @ I_KH.T + K @ R @ K.T) if joseph else I_KH @ P
+
+
+def _jacobian(x, dt, *, sign=-1.0):
+    _, _, yaw, vx, _, ax = x
+    s = vx * dt + 0.5 * ax * dt * dt
+    c, sn = math.cos(yaw), math.sin(yaw)
+    return np.array([[1, 0, sign * s * sn, dt * c, 0, 0.5 * dt * dt * c],
+                     [0, 1, s * c, dt * sn, 0, 0.5 * dt * dt * sn],
+                     [0, 0, 1, 0, dt, 0], [0, 0, 0, 1, 0, dt], [0, 0, 0, 0, 1, 0],
+                     [0, 0, 0, 0, 0, 1]], dtype=float)
+
+
+LAB05 = {
+    "kf_predict": [
+        ("F transposed in the covariance",
+         lambda x, P, F, Q: (np.asarray(F) @ x, np.asarray(F).T @ P @ np.asarray(F) + Q)),
+        ("forgetting Q", lambda x, P, F, Q: (np.asarray(F) @ x,
+                                             np.asarray(F) @ P @ np.asarray(F).T)),
+    ],
+    "joseph_update": [
+        ("a gain without S", lambda *a: _update(*a, gain="R")),
+        ("the short form (I − K H) P", lambda *a: _update(*a, joseph=False)),
+    ],
+    "angle_residual": [
+        ("an unwrapped difference", lambda z, zh: z - zh),
+        ("a difference wrapped to [0, 2π)", lambda z, zh: (z - zh) % (2 * math.pi)),
+        ("generic: the values are the expected ones in degrees: work in radians",
+         lambda z, zh: math.degrees(_wrap(z - zh))),
+    ],
+    "nis": [
+        ("yᵀ S y", lambda y, S: float(np.asarray(y) @ np.asarray(S) @ np.asarray(y))),
+        ("the Mahalanobis distance",
+         lambda y, S: math.sqrt(float(np.asarray(y) @ np.linalg.solve(S, y)))),
+    ],
+    "planar_jacobian": [
+        ("a transposed Jacobian", lambda x, dt: _jacobian(x, dt).T),
+        ("∂x'/∂ψ with the wrong sign", lambda x, dt: _jacobian(x, dt, sign=1.0)),
+    ],
+    "fused_state_indices": [
+        ("the config's own indices", lambda config: [i for i, on in enumerate(config) if on]),
+    ],
+}
+
+CATALOGUE = {"lab01": LAB01, "lab02": LAB02, "lab03": LAB03, "lab04": LAB04, "lab05": LAB05}
+COINCIDENT: dict[tuple[str, str], set[str]] = {
+    # mistakes that give the same numbers on some cases: the check names both there
+    ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
+    ("tick_delta", "the increment modulo 2**bits, never negative"): {"a plain difference"},
+    ("angle_residual", "an unwrapped difference"): {"a difference wrapped to [0, 2π)"},
+    ("angle_residual", "a difference wrapped to [0, 2π)"): {"an unwrapped difference"},
+}
+ENTRIES = [(lab, function, name, fn) for lab, table in CATALOGUE.items()
+           for function, bugs in table.items() for name, fn in bugs]
+
+
+@pytest.mark.parametrize(("lab", "function", "mistake", "buggy"), ENTRIES,
+                         ids=[f"{lab}.{fn}: {name}" for lab, fn, name, _ in ENTRIES])
+def test_each_classic_mistake_gets_exactly_its_hint(lab, function, mistake, buggy):
+    exercise = load_lab(lab).exercise(function)
+    allowed = {mistake} | COINCIDENT.get((function, mistake), set())
+    failing_public, failing = [], []
+    for seed in (None, *HIDDEN_SEEDS):
+        cases = exercise.public if seed is None else exercise.hidden_cases(seed)
+        for case in cases:
+            names = hints(exercise, case, buggy)
+            if names is None:
+                continue
+            failing.append((case.name, names))
+            if seed is None:
+                failing_public.append(names)
+    assert failing, f"the buggy {function} passes every case: the cases cannot see {mistake!r}"
+    for case_name, names in failing:
+        assert mistake in names and names <= allowed, (case_name, names)
+    assert any(names == {mistake} for names in failing_public), failing_public
+
+
+def test_the_catalogue_covers_every_exercise_and_every_diagnostic():
+    for lab in LABS:
+        spec = load_lab(lab)
+        table = CATALOGUE[lab]
+        assert {ex.function for ex in spec.exercises} == set(table), lab
+        for ex in spec.exercises:
+            catalogued = {name for name, _ in table[ex.function]}
+            assert {d.name for d in ex.diagnostics} <= catalogued, ex.id
+
+
+def test_no_two_exercises_share_a_hint():
+    """A hint names its exercise's mistake; the same words under two exercises would point a
+    student at the other one."""
+    seen: dict[str, str] = {}
+    for lab in LABS:
+        for ex in load_lab(lab).exercises:
+            for diag in ex.diagnostics:
+                assert seen.setdefault(diag.hint, ex.id) == ex.id, (diag.hint, ex.id)
+
+
+# ------------------------------------------------------------------ the two hints issue 11 named
+
+def test_swapped_wheels_in_the_twist_node_are_called_swapped_not_a_sign_error(capsys):
+    from grader import checker
+
+    def twist_to_motor_speeds(linear, angular, wheel_radius, wheel_separation, gear_ratio,
+                              left_sign):
+        return _twist(linear, angular, wheel_radius, wheel_separation, gear_ratio, left_sign,
+                      swap=True)
+
+    checker("lab01")(twist_to_motor_speeds)
+    out = capsys.readouterr().out
+    assert "swapped wheels" in out and "wrong sign" not in out, out
+
+
+def test_theta_dot_in_degrees_per_second_gets_a_hint(capsys):
+    from grader import checker
+
+    def forward_kinematics(wheel_speeds, wheel_radius, wheel_separation):
+        return _fk(wheel_speeds, wheel_radius, wheel_separation / 2) * np.array([1, 1, 57.29578])
+
+    checker("lab01")(forward_kinematics)
+    out = capsys.readouterr().out
+    assert "θ̇ in degrees per second" in out, out
+
+
+def test_the_igv_wheels_come_right_first_and_the_papers_order_is_named(capsys):
+    """Replaces tests/test_grader.py's igv check, whose student now returns the right order."""
+    from grader import checker
+
+    def igv_wheel_rpm(linear, angular):
+        return (4000 * linear - 1440 * angular) / 67, (4000 * linear + 1440 * angular) / 67
+
+    checker("lab01")(igv_wheel_rpm)
+    out = capsys.readouterr().out
+    assert "✗ lab01.igv_wheel_rpm" in out and "the paper's order" in out, out
+
+
+@pytest.mark.slow
+def test_the_twist_node_built_from_the_forward_kinematics_loses_exactly_its_points(tmp_path):
+    """tests/test_grader.py's seeded erratum-6 bug, for the renamed wheel_separation argument."""
+    from pathlib import Path
+
+    import nbformat
+
+    from grader.grade import grade_notebook
+
+    root = Path(__file__).resolve().parents[2]
+    nb = nbformat.read(root / "solutions" / "01-kinematics.ipynb", as_version=4)
+    old = ("wheels = inverse_kinematics([linear, 0.0, angular], wheel_radius, "
+           "wheel_separation)")
+    new = ("b = wheel_separation / 2\n    r = wheel_radius\n    wheels = np.array("
+           "[r / 2 * linear + r / (2 * b) * angular, r / 2 * linear - r / (2 * b) * angular])")
+    cells = [c for c in nb.cells if c.cell_type == "code" and old in c.source]
+    assert len(cells) == 1
+    cells[0].source = cells[0].source.replace(old, new)
+    nbformat.write(nb, tmp_path / "bug.ipynb")
+    spec = load_lab("lab01")
+    result = grade_notebook(tmp_path / "bug.ipynb", spec)
+    lost = {k: v for k, v in result.exercises.items() if v.points < v.max_points}
+    assert list(lost) == ["lab01.twist_to_motor_speeds"]
+    assert "erratum 6" in lost["lab01.twist_to_motor_speeds"].reason
