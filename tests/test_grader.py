@@ -145,7 +145,7 @@ def test_compare_accepts_lists_tuples_and_tolerance():
 def test_check_says_not_implemented_passes_and_explains(capsys):
     check = checker("lab01")
 
-    def forward_kinematics(wheel_speeds, wheel_radius, half_track):
+    def forward_kinematics(wheel_speeds, wheel_radius, wheel_separation):
         raise NotImplementedError
 
     check(forward_kinematics)
@@ -157,12 +157,12 @@ def test_check_says_not_implemented_passes_and_explains(capsys):
     check(turning_radius)
     assert "✓ lab01.turning_radius" in capsys.readouterr().out
 
-    def igv_wheel_rpm(linear, angular):
-        return (4000 * linear + 1440 * angular) / 67, (4000 * linear - 1440 * angular) / 67
+    def igv_wheel_rpm(linear, angular):  # left first, as the IGV paper writes them
+        return (4000 * linear - 1440 * angular) / 67, (4000 * linear + 1440 * angular) / 67
 
     check(igv_wheel_rpm)
     out = capsys.readouterr().out
-    assert "✗ lab01.igv_wheel_rpm" in out and "swapped wheels" in out
+    assert "✗ lab01.igv_wheel_rpm" in out and "the paper's order" in out
 
     def broken(linear, angular):
         return 1 / 0
@@ -281,7 +281,7 @@ BUGS = [
      "return np.stack([v, omega], axis=-1)", "return np.stack([omega, v], axis=-1)",
      "erratum 1"),
     ("lab01", "01-kinematics.ipynb", "twist_to_motor_speeds",
-     "wheels = inverse_kinematics([linear, 0.0, angular], wheel_radius, wheel_separation / 2)",
+     "wheels = inverse_kinematics([linear, 0.0, angular], wheel_radius, wheel_separation)",
      "b = wheel_separation / 2\n    r = wheel_radius\n"
      "    wheels = np.array([r / 2 * linear + r / (2 * b) * angular, "
      "r / 2 * linear - r / (2 * b) * angular])", "erratum 6"),
