@@ -15,9 +15,11 @@ from collections.abc import Callable
 from typing import Any
 
 from kit import kinematics, msgs
+from kit.drivers import dpralte
 from kit.drivers.dpralte import DpralteDrive
 from kit.drivers.errors import DriverError
 from kit.drivers.odrive import CLOSED_LOOP_CONTROL, FULL_CALIBRATION_SEQUENCE, IDLE, ODrive
+from kit.drivers.port import Link
 from kit.odometry import WheelOdometry
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
@@ -56,9 +58,10 @@ class UiabotBase:
     def __init__(self, odrive: ODrive | Any, robot: str | RobotDescription = "uiabot",
                  clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep,
-                 log: Callable[[str], None] | None = None) -> None:
+                 log: Callable[[str], None] | None = None, *, baudrate: int = 115200,
+                 stamp: Callable[[], float] | None = None) -> None:
         self.odrive = odrive if isinstance(odrive, ODrive) else \
-            ODrive(odrive, clock=clock, sleep=sleep)
+            ODrive(odrive, clock=clock, sleep=sleep, baudrate=baudrate, stamp=stamp)
         self.robot = robot if isinstance(robot, RobotDescription) else load_robot(robot)
         drive = self.robot.parameters["drive"]
         self.signs = (int(drive.get("right_motor_sign", 1)), int(drive.get("left_motor_sign", 1)))
@@ -70,6 +73,11 @@ class UiabotBase:
     @property
     def clock(self) -> Callable[[], float]:
         return self.odrive.link.clock
+
+    @property
+    def stamp(self) -> Callable[[], float]:
+        """The clock odometry is stamped with (wall clock on a real port)."""
+        return self.odrive.link.stamp
 
     def _step(self, step: str, action: Callable[[], None]) -> None:
         self.log(f"{step} …")
@@ -149,12 +157,12 @@ class UiabotBase:
     def update(self) -> msgs.Odometry:
         """Read both encoders and advance the odometry."""
         right, left = self.encoder_ticks()
-        self.last_odometry = self.odometry.update(right, left, self.clock())
+        self.last_odometry = self.odometry.update(right, left, self.stamp())
         return self.last_odometry
 
     def transform(self) -> msgs.TransformStamped:
         """``odom → base_link`` of the last update."""
-        return self.odometry.transform(self.clock())
+        return self.odometry.transform(self.stamp())
 
     def stop(self) -> None:
         """Zero speed, then both axes to IDLE."""
@@ -170,19 +178,20 @@ class IgvBase:
     encoders."""
 
     def __init__(self, port: Any, robot: str | RobotDescription = "igv", timeout: float = 0.25,
-                 clock: Callable[[], float] = time.monotonic) -> None:
-        if isinstance(port, str):
-            import serial
-
-            port = serial.serial_for_url(port, baudrate=115200, timeout=0.01)
-        self.port = port
+                 clock: Callable[[], float] = time.monotonic, *,
+                 baudrate: int = dpralte.BAUDRATE, sleep: Callable[[float], None] = time.sleep,
+                 stamp: Callable[[], float] | None = None) -> None:
+        # one port, one link: both drives share the bus (a port that cannot be opened is a
+        # PortError naming the DPRALTE, as for every other driver)
+        self.link = Link(dpralte.DEVICE, port, baudrate, 0.01, clock, sleep, stamp)
+        self.port = self.link.port
         self.robot = robot if isinstance(robot, RobotDescription) else load_robot(robot)
         drive = self.robot.parameters["drive"]
         counts = self.robot.encoder_resolution
-        self.right = DpralteDrive(port, int(drive["right_drive_address"]), 0x02, timeout,
-                                  counts, clock)
-        self.left = DpralteDrive(port, int(drive["left_drive_address"]), 0x00, timeout,
-                                 counts, clock)
+        self.right = DpralteDrive(self.link, int(drive["right_drive_address"]), 0x02, timeout,
+                                  counts)
+        self.left = DpralteDrive(self.link, int(drive["left_drive_address"]), 0x00, timeout,
+                                 counts)
         self.clock = clock
         self.odometry = WheelOdometry.for_robot(self.robot)
 
@@ -214,7 +223,7 @@ class IgvBase:
     def update(self) -> msgs.Odometry:
         right = self.right.read_position() % (1 << self.robot.counter_bits)
         left = self.left.read_position() % (1 << self.robot.counter_bits)
-        return self.odometry.update(right, left, self.clock())
+        return self.odometry.update(right, left, self.link.stamp())
 
     def stop(self) -> None:
         for drive in (self.right, self.left):

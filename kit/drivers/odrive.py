@@ -20,8 +20,8 @@ from kit.drivers.checksums import odrive_checksum
 from kit.drivers.errors import ChecksumError, DeviceError, DeviceTimeout, ProtocolError
 from kit.drivers.port import Link
 
-__all__ = ["AXIS_STATES", "DEVICE", "ERROR_REPLIES", "ODrive", "axis_state_name",
-           "encode_line", "parse_reply"]
+__all__ = ["AXIS_STATES", "DEVICE", "ERROR_REPLIES", "ODrive", "ReplySplitter",
+           "axis_state_name", "encode_line", "parse_reply"]
 
 DEVICE = "ODrive"
 IDLE, FULL_CALIBRATION_SEQUENCE, CLOSED_LOOP_CONTROL = 1, 3, 8
@@ -80,17 +80,38 @@ def encode_line(command: str, checksum: bool = False) -> bytes:
     return f"{command}\n".encode("ascii")
 
 
-def parse_reply(line: str, checksum: bool = False) -> str:
+def _printable(raw: bytes) -> bool:
+    return all(0x20 <= b <= 0x7E for b in raw)
+
+
+def parse_reply(line: str | bytes, checksum: bool = False) -> str:
     """A reply line (without CR LF) → its text, the checksum checked when expected.
 
-    Raises :class:`ChecksumError` for a missing or wrong checksum and :class:`DeviceError`
-    for the firmware's error replies (``invalid property`` …).
+    The line is judged as the bytes that came: the firmware's replies are printable ASCII,
+    so any other byte (or character) means line noise, and the checksum is the XOR of those
+    bytes (two bytes that would both decode to U+FFFD cannot cancel out).
+
+    Raises :class:`ChecksumError` for a missing or wrong checksum, :class:`ProtocolError`
+    for a line that is not printable ASCII, and :class:`DeviceError` for the firmware's
+    error replies (``invalid property`` …).
+
+    >>> parse_reply(b"24.087744*32", checksum=True)
+    '24.087744'
     """
-    text = line
+    if isinstance(line, str):
+        try:
+            raw = line.encode("ascii")
+        except UnicodeEncodeError:
+            raise ProtocolError(DEVICE, f"reply is not ASCII: {line[:60]!r}") from None
+    else:
+        raw = bytes(line)
+    if not _printable(raw):
+        raise ProtocolError(DEVICE, f"reply holds bytes the firmware never sends: {raw[:60]!r}")
+    text = raw.decode("ascii")
     if checksum:
-        body, star, given = line.rpartition("*")
+        body, star, given = text.rpartition("*")
         if not star or not given.isdigit():
-            raise ChecksumError(DEVICE, f"reply without a checksum: {line[:60]!r}")
+            raise ChecksumError(DEVICE, f"reply without a checksum: {text[:60]!r}")
         if odrive_checksum(body) != int(given):
             raise ChecksumError(DEVICE, f"checksum {given} does not match "
                                         f"{odrive_checksum(body)} for {body[:60]!r}")
@@ -99,6 +120,48 @@ def parse_reply(line: str, checksum: bool = False) -> str:
         if text.startswith(error):
             raise DeviceError(DEVICE, text, code)
     return text
+
+
+class ReplySplitter:
+    """Bytes → reply lines, cut on the raw bytes.
+
+    The firmware ends every reply line with CR LF and sends nothing but printable ASCII in
+    between, so a line ends at CR, at LF, or at any byte the firmware never sends: a line
+    end damaged by noise splits two replies instead of merging them. Each line comes with
+    ``after_bare_cr``: the line before it ended in a CR not followed by LF — the LF may
+    have been turned into this line's first byte, which :meth:`ODrive` then tries without.
+    A line longer than ``limit`` bytes (the firmware's 256) is dropped, counted in
+    ``dropped``.
+
+    >>> ReplySplitter().feed(b"1.5*31\\r\\n2.0 0.0\\r*31\\r\\n")
+    [(b'1.5*31', False), (b'2.0 0.0', False), (b'*31', True)]
+    """
+
+    def __init__(self, limit: int = 256) -> None:
+        self.limit = limit
+        self.dropped = 0
+        self._line = bytearray()
+        self._bare_cr = False  # the line in progress follows a CR without LF
+        self._last = b""  # the last byte seen, across feeds
+
+    def feed(self, data: bytes) -> list[tuple[bytes, bool]]:
+        out: list[tuple[bytes, bool]] = []
+        line = self._line
+        for b in data:
+            if 0x20 <= b <= 0x7E:
+                if self._last == b"\r" and not line:
+                    self._bare_cr = True
+                line.append(b)
+                if len(line) > self.limit:
+                    self.dropped += len(line)
+                    line.clear()
+            else:
+                if line:
+                    out.append((bytes(line), self._bare_cr))
+                    line.clear()
+                self._bare_cr = False
+            self._last = bytes([b])
+        return out
 
 
 class ODrive:
@@ -117,12 +180,13 @@ class ODrive:
 
     def __init__(self, port: Any, timeout: float = 0.5, checksum: bool = True,
                  firmware: str = "0.5.6", clock: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep) -> None:
-        self.link = Link(DEVICE, port, 115200, 0.01, clock, sleep)
+                 sleep: Callable[[float], None] = time.sleep, *, baudrate: int = 115200,
+                 stamp: Callable[[], float] | None = None) -> None:
+        self.link = Link(DEVICE, port, baudrate, 0.01, clock, sleep, stamp)
         self.timeout = timeout
         self.checksum = checksum
         self.firmware = firmware
-        self._partial = b""
+        self.splitter = ReplySplitter()
         self.rejected = 0
 
     # ------------------------------------------------------------------ lines
@@ -130,33 +194,39 @@ class ODrive:
         """A command that has no reply (``v``, ``w``, ``sc`` …)."""
         self.link.write(encode_line(command, self.checksum), command)
 
+    def _accept(self, raw: bytes, after_bare_cr: bool) -> str | None:
+        """A line's text, or ``None`` (counted) for a corrupted line or a debug print."""
+        try:
+            return parse_reply(raw, self.checksum)
+        except (ChecksumError, ProtocolError):
+            pass
+        if after_bare_cr and len(raw) > 1:  # the LF before it may have become its 1st byte
+            try:
+                return parse_reply(raw[1:], self.checksum)
+            except (ChecksumError, ProtocolError):
+                pass
+        self.rejected += 1
+        return None
+
     def _lines(self, what: str, count: int) -> list[str]:
         link = self.link
         deadline = link.clock() + self.timeout
         lines: list[str] = []
         while True:
-            *complete, self._partial = self._partial.split(b"\r\n")
-            for i, raw in enumerate(complete):
-                if not raw:
-                    continue
-                try:
-                    lines.append(parse_reply(raw.decode("ascii", "replace"), self.checksum))
-                except ChecksumError:
-                    self.rejected += 1  # a corrupted reply, or a debug print of the firmware
-                    continue
+            for raw, after_bare_cr in self.splitter.feed(link.read_some(what)):
+                text = self._accept(raw, after_bare_cr)
+                if text is not None:
+                    lines.append(text)
                 if len(lines) == count:
-                    self._partial = b"\r\n".join([*complete[i + 1:], self._partial])
                     return lines
-            if len(self._partial) > 1024:
-                self._partial = b""
             if link.clock() >= deadline:
                 raise DeviceTimeout(DEVICE, f"{what}: no reply within {self.timeout:g} s")
-            self._partial += link.read_some(what)
 
     def query(self, command: str, lines: int = 1) -> list[str]:
-        """Send ``command`` and return its ``lines`` reply lines (texts)."""
+        """Send ``command`` and return its ``lines`` reply lines (texts); stale bytes are
+        dropped first."""
         self.link.clear(command)
-        self._partial = b""
+        self.splitter = ReplySplitter(self.splitter.limit)
         self.send(command)
         return self._lines(command, lines)
 
