@@ -338,7 +338,8 @@ class PtyServer:
     served by one thread, so devices that share a simulated robot never race.
     """
 
-    def __init__(self, device: Device | list[Device], clock: Any = time.monotonic) -> None:
+    def __init__(self, device: Device | list[Device], clock: Any = time.monotonic,
+                 start: float = 0.0) -> None:
         self.devices = list(device) if isinstance(device, (list, tuple)) else [device]
         self.clock = clock
         self.masters: list[int] = []
@@ -354,7 +355,7 @@ class PtyServer:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.overrun = 0
-        self.t0 = clock()
+        self.t0 = clock() - start  # the devices' time: ``start`` seconds now
 
     @property
     def device(self) -> Device:

@@ -14,6 +14,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from kit import kinematics, msgs
 from kit.drivers import dpralte
 from kit.drivers.dpralte import DpralteDrive
@@ -24,7 +26,17 @@ from kit.odometry import WheelOdometry
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
 
-__all__ = ["BringUpError", "IgvBase", "UiabotBase"]
+__all__ = ["WHEEL_JOINTS", "BringUpError", "IgvBase", "UiabotBase"]
+
+WHEEL_JOINTS = ("right_wheel_joint", "left_wheel_joint")
+"""the wheel joints of the robots' URDFs, in the kit's (right, left) order."""
+
+
+def _wheel_state(stamp: float, positions: list[float],
+                 velocities: list[float]) -> msgs.JointState:
+    return msgs.JointState(msgs.Header(msgs.Time.from_sec(stamp), ""), WHEEL_JOINTS,
+                           np.asarray(positions, dtype=np.float64),
+                           np.asarray(velocities, dtype=np.float64))
 
 
 class BringUpError(DriverError):
@@ -160,6 +172,22 @@ class UiabotBase:
         self.last_odometry = self.odometry.update(right, left, self.stamp())
         return self.last_odometry
 
+    def read_wheels(self) -> tuple[msgs.JointState, msgs.Odometry]:
+        """One reading of both encoders (``f 0``, ``f 1``): the wheels' ``JointState``
+        (positions [rad] and speeds [rad/s] at the wheel, signs undone) and the odometry it
+        advances. Needs no bring-up: the encoders count in IDLE too."""
+        d = self.robot
+        positions, velocities, counts = [], [], []
+        for axis in (0, 1):
+            turns, turns_per_s = self.odrive.feedback(axis)
+            sign = self.signs[axis]
+            positions.append(sign * turns * 2 * math.pi / d.gear_ratio)
+            velocities.append(sign * turns_per_s * 2 * math.pi / d.gear_ratio)
+            counts.append(round(sign * turns * d.encoder_resolution) % (1 << d.counter_bits))
+        t = self.stamp()
+        self.last_odometry = self.odometry.update(counts[0], counts[1], t)
+        return _wheel_state(t, positions, velocities), self.last_odometry
+
     def transform(self) -> msgs.TransformStamped:
         """``odom → base_link`` of the last update."""
         return self.odometry.transform(self.stamp())
@@ -224,6 +252,18 @@ class IgvBase:
         right = self.right.read_position() % (1 << self.robot.counter_bits)
         left = self.left.read_position() % (1 << self.robot.counter_bits)
         return self.odometry.update(right, left, self.link.stamp())
+
+    def read_wheels(self) -> tuple[msgs.JointState, msgs.Odometry]:
+        """Both drives' position registers: the wheels' ``JointState`` (positions [rad]; no
+        speeds, which would take two more transactions) and the odometry they advance.
+        Needs no write access and moves nothing."""
+        d = self.robot
+        raw = [self.right.read_position(), self.left.read_position()]
+        t = self.link.stamp()
+        odometry = self.odometry.update(raw[0] % (1 << d.counter_bits),
+                                        raw[1] % (1 << d.counter_bits), t)
+        positions = [c * 2 * math.pi / d.ticks_per_wheel_turn for c in raw]
+        return _wheel_state(t, positions, []), odometry
 
     def stop(self) -> None:
         for drive in (self.right, self.left):
