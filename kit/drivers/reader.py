@@ -15,10 +15,10 @@ in ``error`` (and passed to ``on_error``).
 >>> import queue
 >>> from kit import msgs
 >>> q = queue.Queue()
->>> r = Reader("demo", lambda: [("/t", msgs.TFMessage())], q, period=0.01, limit=3).start()
+>>> r = Reader("demo", lambda: [("/imu", msgs.Imu())], q, period=0.01, limit=3).start()
 >>> r.join(1.0)
->>> [q.get()[0] for _ in range(3)], r.messages
-(['/t', '/t', '/t'], 3)
+>>> [q.get(timeout=1.0)[0] for _ in range(3)], r.messages, r.error
+(['/imu', '/imu', '/imu'], 3, None)
 """
 
 from __future__ import annotations
