@@ -142,8 +142,14 @@ class FrameParser:
     CRC leaves a zero CRC residue (as does any run of whole frames), its data CRC would
     pass: a phantom frame, and the real one lost. So a candidate with a valid header
     starting inside its span is dropped as soon as that header is seen (even before the
-    candidate's announced length has arrived). The chance that a genuine frame's data
-    holds ``A5`` plus five bytes plus their matching CRC is 2⁻²⁴ per position.
+    candidate's announced length has arrived).
+
+    A header is also held to the protocol (:meth:`_header_at`: a read or write control
+    byte, a node's or the master's address, a reply status drives send). That matters for
+    3-word data: its 6 bytes and their CRC are 8 bytes with a zero CRC residue, exactly
+    like a header, so a 3-word frame whose data starts with ``A5`` carries a header-shaped
+    block; it passes for one only if its next bytes also follow the protocol (about 1 in
+    8000 such blocks), and only then is the frame around it refused or a phantom taken.
     ``dropped`` counts the bytes thrown away, ``errors`` the reasons.
     """
 
@@ -158,11 +164,24 @@ class FrameParser:
         self._buffer.clear()
 
     @staticmethod
-    def _header_inside(buf: bytearray, size: int) -> bool:
+    def _header_at(buf: bytearray, k: int) -> bool:
+        """Whether a whole header that could be real starts at ``k``: its CRC checks, its
+        control byte is a read or a write with bits 7..6 clear, its address is a node's
+        (0x00–0x3F) or the master's (0xFF), and a reply's status is one drives send."""
+        if k + 8 > len(buf) or crc16_xmodem(bytes(buf[k:k + 8])) != 0:
+            return False
+        address, control = buf[k + 1], buf[k + 2]
+        if control & 0xC0 or (control & 0x03) not in (READ, WRITE):
+            return False
+        if address == MASTER:
+            return buf[k + 3] in STATUS
+        return address <= 0x3F
+
+    def _header_inside(self, buf: bytearray, size: int) -> bool:
         """Whether a whole valid header starts within ``buf[8:size]``."""
         k = buf.find(SOF, 8, size)
         while k >= 0:
-            if k + 8 <= len(buf) and crc16_xmodem(bytes(buf[k:k + 8])) == 0:
+            if self._header_at(buf, k):
                 return True
             k = buf.find(SOF, k + 1, size)
         return False
@@ -189,6 +208,9 @@ class FrameParser:
                 return frames
             if crc16_xmodem(bytes(buf[:8])) != 0:  # header plus its CRC leaves no residue
                 self._drop("header CRC mismatch")
+                continue
+            if not self._header_at(buf, 0):
+                self._drop("not a header: control, address or status out of the protocol")
                 continue
             command, words = buf[2] & 0x03, buf[5]
             size = 8 + (2 * words + 2 if command == WRITE and words else 0)

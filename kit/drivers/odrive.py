@@ -20,7 +20,7 @@ from kit.drivers.checksums import odrive_checksum
 from kit.drivers.errors import ChecksumError, DeviceError, DeviceTimeout, ProtocolError
 from kit.drivers.port import Link
 
-__all__ = ["AXIS_STATES", "DEVICE", "ERROR_REPLIES", "ODrive", "ReplySplitter",
+__all__ = ["AXIS_STATES", "DEVICE", "ERROR_REPLIES", "ODrive", "ReplyLines", "ReplySplitter",
            "axis_state_name", "encode_line", "parse_reply"]
 
 DEVICE = "ODrive"
@@ -37,6 +37,10 @@ AXIS_STATES: dict[str, dict[int, str]] = {
 }
 """axis states by firmware: ``"0.5.1"`` (also 0.4.x) and ``"0.5.2"`` (0.5.2 – 0.5.6)."""
 
+LF_FLIPPED = (b"*", b"J")
+"""the printable bytes one flipped bit makes of LF (0x0A ^ 0x20, 0x0A ^ 0x40)."""
+CR_FLIPPED = (b"-", b"M")
+"""the printable bytes one flipped bit makes of CR (0x0D ^ 0x20, 0x0D ^ 0x40)."""
 ERROR_REPLIES = ("invalid command format", "invalid motor", "invalid property",
                  "not implemented", "unknown command")
 
@@ -126,41 +130,95 @@ class ReplySplitter:
     """Bytes → reply lines, cut on the raw bytes.
 
     The firmware ends every reply line with CR LF and sends nothing but printable ASCII in
-    between, so a line ends at CR, at LF, or at any byte the firmware never sends: a line
-    end damaged by noise splits two replies instead of merging them. Each line comes with
-    ``after_bare_cr``: the line before it ended in a CR not followed by LF — the LF may
-    have been turned into this line's first byte, which :meth:`ODrive` then tries without.
+    between, so a line is a run of printable bytes, and anything else (CR, LF, a byte the
+    firmware never sends) ends it: a line end damaged by noise splits two replies instead
+    of merging them. Each line comes with ``clean``: whether a CR LF comes right before it
+    (or it is the first line). A line that does not start clean may be
+    the tail of a line cut by noise, and the XOR checksum cannot tell (a cut-off prefix
+    such as ``11`` XORs to zero), so :class:`ODrive` trusts it only after a good line.
     A line longer than ``limit`` bytes (the firmware's 256) is dropped, counted in
     ``dropped``.
 
     >>> ReplySplitter().feed(b"1.5*31\\r\\n2.0 0.0\\r*31\\r\\n")
-    [(b'1.5*31', False), (b'2.0 0.0', False), (b'*31', True)]
+    [(b'1.5*31', True), (b'2.0 0.0', True), (b'*31', False)]
     """
 
     def __init__(self, limit: int = 256) -> None:
         self.limit = limit
         self.dropped = 0
         self._line = bytearray()
-        self._bare_cr = False  # the line in progress follows a CR without LF
-        self._last = b""  # the last byte seen, across feeds
+        self._gap = bytearray()  # the bytes between the last line and the one coming
+        self._first = True
 
     def feed(self, data: bytes) -> list[tuple[bytes, bool]]:
         out: list[tuple[bytes, bool]] = []
-        line = self._line
+        line, gap = self._line, self._gap
         for b in data:
             if 0x20 <= b <= 0x7E:
-                if self._last == b"\r" and not line:
-                    self._bare_cr = True
                 line.append(b)
                 if len(line) > self.limit:
                     self.dropped += len(line)
                     line.clear()
-            else:
-                if line:
-                    out.append((bytes(line), self._bare_cr))
-                    line.clear()
-                self._bare_cr = False
-            self._last = bytes([b])
+                continue
+            if line:
+                gap_ok = (self._first and not gap) or gap.endswith(b"\r\n")
+                out.append((bytes(line), gap_ok))
+                line.clear()
+                gap.clear()
+                self._first = False
+            gap.append(b)
+        return out
+
+
+class ReplyLines:
+    """Bytes → checked reply texts: :class:`ReplySplitter`'s lines through
+    :func:`parse_reply`. Corrupted lines and the firmware's debug prints are counted in
+    ``rejected`` and skipped; the firmware's error replies raise :class:`DeviceError`.
+
+    A line that did not start clean is taken only after a good line (junk between the two
+    aside): then what damaged the line end was the good line's LF — dropped, or turned by
+    one flipped bit into this line's first byte (``*`` or ``J``, which no reply starts
+    with), so such a line is also tried without that byte; likewise a line ending in what a
+    flipped bit makes of CR (``-`` or ``M``, which no checksum ends with).
+
+    >>> ReplyLines(checksum=True).feed(b"24.087744*32\\r\\n1.0*3\\r\\n")
+    ['24.087744']
+    """
+
+    def __init__(self, checksum: bool = True, limit: int = 256) -> None:
+        self.checksum = checksum
+        self.splitter = ReplySplitter(limit)
+        self.rejected = 0
+        self._good = False
+
+    def _accept(self, raw: bytes, clean: bool) -> str | None:
+        text: str | None = None
+        if clean or self._good:
+            candidates = [raw]
+            if not clean and raw[:1] in LF_FLIPPED and len(raw) > 1:
+                candidates.append(raw[1:])
+            if raw[-1:] in CR_FLIPPED and len(raw) > 1:  # this line's own CR, flipped
+                candidates.append(raw[:-1])
+            for candidate in candidates:
+                try:
+                    text = parse_reply(candidate, self.checksum)
+                    break
+                except (ChecksumError, ProtocolError):
+                    continue
+        if text is not None:
+            self._good = True
+        elif clean:
+            self._good = False  # a damaged line: what follows it unclean may be its tail
+        if text is None:
+            self.rejected += 1
+        return text
+
+    def feed(self, data: bytes) -> list[str]:
+        out = []
+        for raw, clean in self.splitter.feed(data):
+            text = self._accept(raw, clean)
+            if text is not None:
+                out.append(text)
         return out
 
 
@@ -186,7 +244,7 @@ class ODrive:
         self.timeout = timeout
         self.checksum = checksum
         self.firmware = firmware
-        self.splitter = ReplySplitter()
+        self.replies = ReplyLines(checksum)
         self.rejected = 0
 
     # ------------------------------------------------------------------ lines
@@ -194,31 +252,16 @@ class ODrive:
         """A command that has no reply (``v``, ``w``, ``sc`` …)."""
         self.link.write(encode_line(command, self.checksum), command)
 
-    def _accept(self, raw: bytes, after_bare_cr: bool) -> str | None:
-        """A line's text, or ``None`` (counted) for a corrupted line or a debug print."""
-        try:
-            return parse_reply(raw, self.checksum)
-        except (ChecksumError, ProtocolError):
-            pass
-        if after_bare_cr and len(raw) > 1:  # the LF before it may have become its 1st byte
-            try:
-                return parse_reply(raw[1:], self.checksum)
-            except (ChecksumError, ProtocolError):
-                pass
-        self.rejected += 1
-        return None
-
     def _lines(self, what: str, count: int) -> list[str]:
         link = self.link
         deadline = link.clock() + self.timeout
         lines: list[str] = []
         while True:
-            for raw, after_bare_cr in self.splitter.feed(link.read_some(what)):
-                text = self._accept(raw, after_bare_cr)
-                if text is not None:
-                    lines.append(text)
-                if len(lines) == count:
-                    return lines
+            before = self.replies.rejected
+            lines += self.replies.feed(link.read_some(what))
+            self.rejected += self.replies.rejected - before
+            if len(lines) >= count:
+                return lines[:count]
             if link.clock() >= deadline:
                 raise DeviceTimeout(DEVICE, f"{what}: no reply within {self.timeout:g} s")
 
@@ -226,7 +269,7 @@ class ODrive:
         """Send ``command`` and return its ``lines`` reply lines (texts); stale bytes are
         dropped first."""
         self.link.clear(command)
-        self.splitter = ReplySplitter(self.splitter.limit)
+        self.replies = ReplyLines(self.checksum)
         self.send(command)
         return self._lines(command, lines)
 

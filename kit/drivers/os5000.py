@@ -37,8 +37,9 @@ BAUDRATE = 19200
 TOKEN = re.compile(r"(Mx|My|Mz|Ax|Ay|Az|[CPRTD])(-?\d+(?:\.\d+)?)")
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
 # a sentence's body holds only tags, numbers and commas: anything else (a NUL byte inserted
-# by line noise leaves the XOR unchanged) means a corrupted line
-SENTENCE = re.compile(r"^\$([A-Za-z0-9.,-]*)\*([0-9A-Fa-f]{2})$")
+# by line noise leaves the XOR unchanged) means a corrupted line; the compass writes its
+# checksum in upper case, so a flipped case bit is a corruption too
+SENTENCE = re.compile(r"^\$([A-Za-z0-9.,-]*)\*([0-9A-F]{2})$")
 FIELDS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (1, ("C",)), (2, ("P",)), (4, ("R",)), (8, ("T",)), (16, ("D",)),
     (64, ("Mx", "My", "Mz")), (256, ("Ax", "Ay", "Az")))
@@ -76,10 +77,10 @@ class CompassReading:
 
 
 def _body(line: str) -> str:
-    match = SENTENCE.match(line.strip())
+    match = SENTENCE.match(line)
     if not match:
         raise ProtocolError(DEVICE, f"not a sentence: {line[:60]!r}")
-    body, given = match.group(1), match.group(2).upper()
+    body, given = match.group(1), match.group(2)
     if nmea_checksum(body) != given:
         raise ChecksumError(DEVICE, f"checksum {given} does not match "
                                     f"{nmea_checksum(body)} for {body[:60]!r}")
