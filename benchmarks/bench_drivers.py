@@ -61,7 +61,7 @@ def chunked(data: bytes, size: int) -> list[bytes]:
     return [data[k:k + size] for k in range(0, len(data), size)]
 
 
-def decoding() -> None:
+def decoding_the_scanners() -> None:
     stream = chunked(rplidar_stream(200), 512)  # as a serial port hands it over
 
     def nodes_and_turns() -> int:
@@ -96,6 +96,9 @@ def decoding() -> None:
     report("LMS291 B0 telegrams (181 values) decoded", best_rate(decode_scans), "scans/s",
            LMS291_SCANS_PER_S, "the mirror's 75 scans/s")
 
+
+def decoding_the_others() -> None:
+    stamp = msgs.Time(0, 0)
     rng = random.Random(1)
     frames = b"".join(
         dpralte.encode_write(0x3F, 0x45, 0x02, dpralte.int32_words(rng.randrange(-4000, 4000)),
@@ -199,5 +202,6 @@ def drivers_on_the_logical_clock() -> None:
 
 
 if __name__ == "__main__":
-    decoding()
+    decoding_the_scanners()
+    decoding_the_others()
     drivers_on_the_logical_clock()

@@ -67,9 +67,10 @@ class Reader:
     deliver : queue.Queue or callable
         Where each ``(topic, time_ns, message)`` goes: ``put`` on a queue, or called.
     period : float
-        At least this many seconds between the starts of two reads (0: read again at once,
-        for devices that stream and make ``read`` wait). Polled devices need one (an IMU
-        at 100 Hz: 0.01).
+        Seconds between the starts of two reads on average (0: read again at once, for
+        devices that stream and make ``read`` wait). Polled devices need one (an IMU at
+        100 Hz: 0.01); a reading that comes late is made up for by reading the next ones
+        sooner (up to a second behind).
     on_error : callable, optional
         Called with the error that ended the thread.
     limit : int, optional
@@ -147,9 +148,11 @@ class Reader:
                     return
                 self._once()
                 if self.period:
+                    # keep the average rate: a late reading is made up for by the next
+                    # ones, up to a second's worth; further behind, start afresh
                     next_start += self.period
                     wait = next_start - time.monotonic()
-                    if wait < -self.period:  # fell far behind: do not try to catch up
+                    if wait < -1.0:
                         next_start, wait = time.monotonic(), 0.0
                     if wait > 0:
                         self._stop.wait(wait)

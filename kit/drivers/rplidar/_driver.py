@@ -170,8 +170,12 @@ class RPLidar:
         self.scanning = True
 
     def start(self) -> None:
-        """Motor on, health checked (a device in error is reset once), standard scan on."""
+        """Motor on, a scan left running stopped, health checked (a device in error is reset
+        once), standard scan on."""
         self._motor(True)
+        self._command(STOP, "stop", None)
+        self.link.sleep(0.002)
+        self._clear("stop")
         status, code = self.health()
         if status == 2:
             self.reset()
