@@ -11,6 +11,8 @@ pymunk):
 * :mod:`kit.kinematics` differential-drive kinematics, the IGV's RPM equations
 * :mod:`kit.odometry`   encoder ticks → pose, covariance, ``Odometry`` messages
 * :mod:`kit.maps`       occupancy grids in the ROS map_server format (YAML + PGM)
+* :mod:`kit.bag`        ROS 2 bags (MCAP) written and read (rosbags, imported lazily)
+* :mod:`kit.drivers`    the devices' serial drivers, reader threads, ``kit record``/``probe``
 * :mod:`kit.control`    DC motor model, discrete PID, cascade, step figures, tuning
 * :mod:`kit.estimation` the EKF and a robot_localization-style fusion filter
 * :mod:`kit.viz`        plotting (matplotlib, imported lazily)

@@ -9,6 +9,7 @@ Examples::
     python -m hardware.emulators odrive
     python -m hardware.emulators rplidar --sim office --faults seed=1,flip=0.001
     python -m hardware.emulators uiabot --world office --people 3
+    python -m hardware.emulators rplidar --replay capture.bin
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from typing import Any
 from hardware.emulators.core import Device, Faults, PtyServer
 
 DEVICES = ("odrive", "bno055", "rplidar", "lms2xx", "dpralte", "os5000")
+WARM_UP_S = 0.25
 ROBOTS = ("uiabot", "igv")
 
 
@@ -54,21 +56,36 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--people", type=int, default=0)
     parser.add_argument("--faults", default="", help="e.g. seed=1,flip=0.001,drop=0.01,"
                                                      "silence=0.001,error=0.01")
+    parser.add_argument("--replay", metavar="CAPTURE", default=None,
+                        help="rplidar only: send this recorded stream (binary, 0xNN lines or "
+                             "a hex dump) when asked to scan")
     args = parser.parse_args(argv)
     try:
         faults = Faults.parse(args.faults) if args.faults else None
     except ValueError as exc:
         parser.error(str(exc))
     names: list[str]
-    if args.device in ROBOTS:
+    devices: list[Device]
+    backend: Any = None
+    if args.replay and args.device != "rplidar":
+        parser.error("--replay replays RPLidar captures: use it with 'rplidar'")
+    if args.replay:
+        from hardware.emulators.replay import CaptureReplay, read_capture
+
+        try:
+            capture = read_capture(args.replay)
+        except (OSError, ValueError) as exc:
+            parser.error(str(exc))
+        names, devices = ["rplidar"], [CaptureReplay(capture, faults=faults)]
+    elif args.device in ROBOTS:
         from hardware.emulators.rigs import igv_rig, uiabot_rig
 
         rig = (uiabot_rig if args.device == "uiabot" else igv_rig)(
             world=args.world or ("square" if args.device == "uiabot" else "aisle"),
             seed=args.seed, people=args.people, faults=faults)
         names, devices = list(rig.devices), list(rig.devices.values())
+        backend = rig.backend
     else:
-        backend = None
         if args.sim:
             from hardware.emulators.backends import SimBackend
 
@@ -76,7 +93,11 @@ def main(argv: list[str] | None = None) -> int:
             backend = SimBackend.create(robot=robot, world=args.sim, seed=args.seed,
                                         people=args.people)
         names, devices = [args.device], [make_device(args.device, backend, faults)]
-    server = PtyServer(devices)
+    if backend is not None:
+        # the first simulated scan loads the compiled ray caster (a second or more): do it
+        # now, not while a driver waits for its first reply
+        backend.advance(WARM_UP_S)
+    server = PtyServer(devices, start=WARM_UP_S if backend is not None else 0.0)
     if len(devices) == 1:
         print(server.path, flush=True)
     else:

@@ -10,10 +10,13 @@ milliseconds.
 
 from __future__ import annotations
 
+import array
+import fcntl
 import math
 import os
 import pty
 import random
+import re
 import select
 import termios
 import threading
@@ -22,11 +25,34 @@ import tty
 from dataclasses import dataclass, fields
 from typing import Any
 
-__all__ = ["BAUD_CONSTANTS", "Clock", "Device", "Faults", "LogicalPort", "PtyServer"]
+__all__ = ["BAUD_CONSTANTS", "Clock", "Device", "Faults", "LogicalPort", "PtyServer",
+           "port_baudrate"]
 
-BAUD_CONSTANTS = {getattr(termios, f"B{b}"): b for b in
-                  (4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800, 500000, 921600)
-                  if hasattr(termios, f"B{b}")}
+BAUD_CONSTANTS = {getattr(termios, name): int(name[1:]) for name in dir(termios)
+                  if re.fullmatch(r"B\d+", name) and int(name[1:]) > 0}
+"""termios speed constant → baud rate, for every standard rate of this system."""
+BOTHER = 0o010000  # Linux: the rate is in termios2's c_ospeed (how pyserial sets 256000)
+TCGETS2 = 0x802C542A  # ioctl reading struct termios2 (x86, arm; pyserial uses the same)
+
+
+def port_baudrate(fd: int) -> int | None:
+    """The baud rate a terminal (a pseudo-terminal's master or slave) is set to: a standard
+    rate from its speed constant, a custom one (``BOTHER``) from ``termios2``; 0 for a rate
+    that cannot be read, ``None`` when the terminal cannot be asked at all (closed)."""
+    try:
+        speed = termios.tcgetattr(fd)[4]
+    except termios.error:
+        return None
+    if speed in BAUD_CONSTANTS:
+        return BAUD_CONSTANTS[speed]
+    if speed == BOTHER:
+        buf = array.array("i", [0] * 64)
+        try:
+            fcntl.ioctl(fd, TCGETS2, buf)
+        except OSError:
+            return 0
+        return int(buf[10])  # c_iflag, c_oflag, c_cflag, c_lflag, c_line + c_cc[19], c_ispeed
+    return 0
 
 
 class Clock:
@@ -105,7 +131,9 @@ class Device:
 
     ``host_baud`` is the rate the host's port is set to (a pseudo-terminal's or a
     :class:`LogicalPort`'s); a device whose ``baudrate`` differs hears garbage and sends
-    garbage, as a real serial link does.
+    garbage, as a real serial link does — at any rate the device does not run at, standard
+    or not. A device on USB (CDC-ACM), where the rate is a setting nobody uses, overrides
+    :meth:`hears`.
     """
 
     name = "device"
@@ -134,6 +162,11 @@ class Device:
         return None
 
     # ------------------------------------------------------------------ plumbing
+    def hears(self, host_baud: int, device_baud: int) -> bool:
+        """Whether a host at ``host_baud`` and the device at ``device_baud`` understand each
+        other (a UART: only at the same rate)."""
+        return host_baud == device_baud
+
     def byte_time(self, n: int) -> float:
         return 10.0 * n / self.baudrate
 
@@ -171,7 +204,7 @@ class Device:
     def feed(self, data: bytes, now: float, host_baud: int | None = None) -> None:
         """Bytes from the host; at a mismatched baud rate the device hears noise."""
         self.received += len(data)
-        if host_baud is not None and host_baud != self.baudrate:
+        if host_baud is not None and not self.hears(host_baud, self.baudrate):
             return
         self.receive(data, now)
 
@@ -187,7 +220,7 @@ class Device:
         out = bytearray()
         for _, chunk, baud in due:
             self.sent += len(chunk)
-            if host_baud is not None and host_baud != baud:
+            if host_baud is not None and not self.hears(host_baud, baud):
                 # sent at another speed: the host's UART samples noise
                 out += bytes(self.rng.randrange(256) for _ in chunk)
             else:
@@ -305,7 +338,8 @@ class PtyServer:
     served by one thread, so devices that share a simulated robot never race.
     """
 
-    def __init__(self, device: Device | list[Device], clock: Any = time.monotonic) -> None:
+    def __init__(self, device: Device | list[Device], clock: Any = time.monotonic,
+                 start: float = 0.0) -> None:
         self.devices = list(device) if isinstance(device, (list, tuple)) else [device]
         self.clock = clock
         self.masters: list[int] = []
@@ -314,12 +348,14 @@ class PtyServer:
         for _ in self.devices:
             master, slave = pty.openpty()
             tty.setraw(slave)
+            os.set_blocking(master, False)
             self.masters.append(master)
             self.slaves.append(slave)
             self.paths.append(os.ttyname(slave))
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self.t0 = clock()
+        self.overrun = 0
+        self.t0 = clock() - start  # the devices' time: ``start`` seconds now
 
     @property
     def device(self) -> Device:
@@ -331,11 +367,7 @@ class PtyServer:
 
     @staticmethod
     def host_baud(master: int) -> int | None:
-        try:
-            speed = termios.tcgetattr(master)[4]
-        except termios.error:
-            return None
-        return BAUD_CONSTANTS.get(speed)
+        return port_baudrate(master)
 
     def now(self) -> float:
         return self.clock() - self.t0
@@ -358,11 +390,20 @@ class PtyServer:
                 for device, master in channels:
                     out = device.read(now, self.host_baud(master))
                     if out:
-                        os.write(master, out)
+                        self._write(master, out)
             except OSError:
                 if self._stop.is_set():
                     return
                 time.sleep(0.01)  # nobody on the other side right now
+
+    def _write(self, master: int, data: bytes) -> None:
+        """Hand bytes to the host's side; what its full buffer cannot take is lost, as with
+        a real UART whose host stops reading (counted in ``overrun``)."""
+        try:
+            written = os.write(master, data)
+        except BlockingIOError:
+            written = 0
+        self.overrun += len(data) - written
 
     def start(self) -> PtyServer:
         self._thread = threading.Thread(target=self.serve, daemon=True,
@@ -370,10 +411,16 @@ class PtyServer:
         self._thread.start()
         return self
 
-    def stop(self) -> None:
+    def freeze(self) -> None:
+        """The devices stop dead (a hung microcontroller): nothing is read or sent any more,
+        the ports stay open."""
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)
+
+    def stop(self) -> None:
+        """Stop serving and close the ports: to a driver, the devices are unplugged."""
+        self.freeze()
         for fd in self.masters + self.slaves:
             try:
                 os.close(fd)

@@ -55,6 +55,8 @@ class ODriveEmulator(Device):
     axis_signs : +1/−1 per axis: the Uiabot's left motor is mounted mirrored.
     firmware : ``"0.5.6"`` (states 0–13 without 5) or ``"0.5.1"`` (0–10).
     calibration_time : seconds a full calibration takes.
+    transport : ``"usb"`` (the Uiabot's: a CDC-ACM port, whose baud setting the device
+        ignores, protocols.md §4.1) or ``"uart"`` (115200 8N1 only; another rate is noise).
     """
 
     name = "odrive"
@@ -63,10 +65,13 @@ class ODriveEmulator(Device):
     def __init__(self, backend: Any = None, gear_ratio: float = 20.0, cpr: int = 20480,
                  axis_signs: tuple[int, int] = (1, -1), firmware: str = "0.5.6",
                  calibration_time: float = 12.0, vbus_voltage: float = 12.1,
-                 faults: Faults | None = None) -> None:
+                 faults: Faults | None = None, transport: str = "usb") -> None:
         super().__init__(faults)
         if firmware not in VALID_STATES:
             raise ValueError(f"firmware must be one of {sorted(VALID_STATES)}; got {firmware!r}")
+        if transport not in ("usb", "uart"):
+            raise ValueError(f"transport is 'usb' or 'uart'; got {transport!r}")
+        self.transport = transport
         self.backend = backend or IdealWheels()
         self.gear_ratio = float(gear_ratio)
         self.cpr = int(cpr)
@@ -86,6 +91,9 @@ class ODriveEmulator(Device):
         return cls(backend, gear_ratio=d.gear_ratio, cpr=d.encoder_resolution,
                    axis_signs=(d.parameters["drive"].get("right_motor_sign", 1),
                                d.parameters["drive"].get("left_motor_sign", 1)), **options)
+
+    def hears(self, host_baud: int, device_baud: int) -> bool:
+        return self.transport == "usb" or host_baud == device_baud
 
     # ------------------------------------------------------------------ the motors
     def _update(self, now: float) -> None:

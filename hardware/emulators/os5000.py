@@ -1,9 +1,12 @@
 """OceanServer OS5000-S compass (``protocols.md`` §2): the device side.
 
-Streams ``$C…*cc`` sentences at the programmed rate (20 Hz by default) with the fields the
-``<ESC>X`` mask selects, in format 1, 2 or 4 (``<ESC>*``); obeys ``<ESC>R`` (0 stops the
-stream), answers each command with a short text line a driver must skip, and ignores other
-ESC commands. The heading is the backend body's (clockwise from north: ``90° − yaw``) plus
+Streams ``$C…*cc`` sentences at the programmed rate (20 Hz by default) with every field
+the ``<ESC>X`` mask selects that an OS5000-S has (1 heading, 2 pitch, 4 roll, 8
+temperature, 64 magnetic x, y, z, 256 acceleration x, y, z; 16, depth, is the OS5500's), in
+format 1, 2 (the same fields, comma-separated) or 4 (``<ESC>*``); obeys ``<ESC>R`` (0
+stops the stream), answers each command with a short text line a driver must skip, and
+ignores other ESC commands. It runs at one baud rate (19200, the factory's): a host at any
+other rate hears noise. The heading is the backend body's (clockwise from north: ``90° − yaw``) plus
 the configured declination; backed by the simulator, it is the simulated compass's reading
 (the robot's IMU model, with its noise and drift), never the ground truth.
 """
@@ -30,8 +33,10 @@ class Os5000Emulator(Device):
     baudrate = 19200
 
     def __init__(self, backend: Any = None, rate: float = 20.0, heading_noise_deg: float = 0.0,
-                 temperature: float = 24.5, faults: Faults | None = None) -> None:
+                 temperature: float = 24.5, faults: Faults | None = None,
+                 baudrate: int = 19200) -> None:
         super().__init__(faults)
+        self.baudrate = baudrate
         self.backend = backend
         self.rate = rate
         self.fields = 15
@@ -60,22 +65,35 @@ class Os5000Emulator(Device):
         noise = self.rng.gauss(0.0, self.heading_noise_deg) if self.heading_noise_deg else 0.0
         return (90.0 - math.degrees(yaw) + self.declination + noise) % 360.0
 
+    def values(self, heading: float) -> list[tuple[str, str]]:
+        """(tag, text) of every field the mask selects, in the compass's order. The body
+        is level (a 2-D world); the field is the Earth's, about 200 mG horizontal and
+        450 mG down, seen from a body whose x points ``heading`` clockwise from north."""
+        h = math.radians(heading)
+        out: list[tuple[str, str]] = []
+        if self.fields & 1:
+            out.append(("C", f"{heading:.1f}"))
+        if self.fields & 2:
+            out.append(("P", "0.0"))
+        if self.fields & 4:
+            out.append(("R", "0.0"))
+        if self.fields & 8:
+            out.append(("T", f"{self.temperature:.1f}"))
+        if self.fields & 64:
+            out += [("Mx", f"{200.0 * math.cos(h):.2f}"), ("My", f"{-200.0 * math.sin(h):.2f}"),
+                    ("Mz", "450.00")]
+        if self.fields & 256:
+            out += [("Ax", "0.000"), ("Ay", "0.000"), ("Az", "1.000")]
+        return out
+
     def body(self, now: float) -> str:
         h = self.heading(now)
         if self.format == 4:
             return f"HCHDT,{h:.1f},T"
+        values = self.values(h)
         if self.format == 2:
-            return f"OHPR,{h:.1f},0.0,0.0,{self.temperature:.1f}"
-        parts = [f"C{h:.1f}"]
-        if self.fields & 2:
-            parts.append("P0.0")
-        if self.fields & 4:
-            parts.append("R0.0")
-        if self.fields & 8:
-            parts.append(f"T{self.temperature:.1f}")
-        if self.fields & 256:
-            parts.append("Ax0.000Ay0.000Az1.000")
-        return "".join(parts)
+            return "OHPR," + ",".join(text for _, text in values)
+        return "".join(tag + text for tag, text in values)
 
     def receive(self, data: bytes, now: float) -> None:
         for b in data:

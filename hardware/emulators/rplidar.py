@@ -1,20 +1,35 @@
 """Slamtec RPLidar A1 (``protocols.md`` §6): the device side.
 
 Answers GET_INFO, GET_HEALTH and GET_SAMPLERATE with a descriptor and payload; streams
-5-byte standard-scan nodes only after SCAN (or FORCE_SCAN), paced at ``samples_per_second``
-with the start flag on the first node of each turn, until STOP; RESET ends the stream and
-prints a boot banner; SET_MOTOR_PWM is ignored (the A1's motor follows DTR, which a
-pseudo-terminal cannot carry, so the motor is taken to be running). ``health=2`` makes the
-device report an error until it is reset.
+5-byte standard-scan nodes only after SCAN (or FORCE_SCAN), paced at ``samples_per_second``,
+until STOP; RESET ends the stream and prints a boot banner; SET_MOTOR_PWM is ignored (the
+A1's motor follows DTR, which a pseudo-terminal cannot carry, so the motor is taken to be
+running). ``health=2`` makes the device report an error until it is reset. Only 115200
+baud: at any other rate the host hears noise.
+
+The head behaves as the real A1's does in the captured streams
+(``shared/data/device-captures``):
+
+* the start flag comes on the first sample after the head passes its index mark, at
+  357.8°–359.7° of head angle (the captures' range), not at 0°;
+* the angle reported with a return is the head angle corrected for the triangulation
+  geometry, ``atan(a (b − d) / (b d))`` with ``a`` = 23.5 mm and ``b`` = 171.6 mm fitted to
+  the captures (7,863 returns; residual 0.43° rms): about −7° for a return at 2 m, so the
+  start node of a turn reads 351°–352° and angles step back a few degrees where near and
+  far returns alternate; a sample without a return keeps the head angle;
+* the head's speed varies a little from turn to turn (σ = 0.5 %: the captures' turns hold
+  314–322 samples).
 
 Ranges come from the backend's lidar: each simulated scan (counter-clockwise beams, the
-turn's motion distortion included) is sent as one turn of clockwise nodes; on its own the
-emulator sees an 8 m × 8 m room.
+turn's motion distortion included) is sent as one turn of clockwise nodes, each beam's
+bearing exact and its place in the turn where the head took it; on its own the emulator
+sees an 8 m × 8 m room.
 """
 
 from __future__ import annotations
 
 import math
+import random
 from typing import Any
 
 import numpy as np
@@ -42,6 +57,28 @@ __all__ = ["RPLidarEmulator"]
 INFO = bytes.fromhex("A55A1400000004") + bytes([0x18, 0x1D, 0x01, 0x07]) + \
     bytes.fromhex("6A9C9AF0C5E09ED2A0EAFBF7C3554A1D")
 BANNER = b"RP LIDAR System.\r\nFirmware Ver 1.29 - rc9, HW Ver 7\r\nModel: 18\r\n"
+TRIANGULATION_MM = (23.5, 171.6)
+"""(a, b) of the angle correction ``atan(a (b − d) / (b d))``, fitted to the captures."""
+INDEX_MARK_DEG = 357.8
+"""the lowest head angle at which a captured start flag came."""
+INDEX_JITTER_DEG = 0.75
+"""how far past the mark the index is sensed (so the flag's head angle spans 357.8–359.7°,
+one sample step wider, as in the captures)."""
+SPEED_JITTER = 0.005
+"""turn-to-turn spread of the head's speed."""
+
+
+def triangulation_offset_deg(distance_mm: np.ndarray) -> np.ndarray:
+    """The A1's bearing correction [deg] for returns at ``distance_mm`` (0 where there is no
+    return): the reported angle is the head angle plus this.
+
+    >>> triangulation_offset_deg(np.array([0.0, 171.6, 2000.0])).round(2).tolist()
+    [0.0, 0.0, -7.14]
+    """
+    d = np.asarray(distance_mm, dtype=np.float64)
+    a, b = TRIANGULATION_MM
+    safe = np.where(d > 0, d, b)
+    return np.where(d > 0, np.degrees(np.arctan(a * (b - safe) / (b * safe))), 0.0)
 
 
 class RPLidarEmulator(Device):
@@ -51,9 +88,12 @@ class RPLidarEmulator(Device):
     def __init__(self, backend: Any = None, samples_per_second: float = 2000.0,
                  turns_per_second: float = 5.5, health: int = 0,
                  express_samples_per_second: float = 4000.0,
-                 faults: Faults | None = None) -> None:
+                 faults: Faults | None = None, seed: int = 0) -> None:
         super().__init__(faults)
         self.backend = backend
+        self.head_rng = random.Random(seed)  # the head's own jitter, apart from the faults'
+        self._head = 0.0  # head angle of the next sample [deg, clockwise, unwrapped]
+        self._turn = 0
         self.sample_time = 1.0 / samples_per_second
         # legacy capsules take 84 bytes per 32 samples: at 115200 baud the link carries at most
         # about 4400 samples/s, so the emulator's express mode gives 4000 (the paper's 8000
@@ -125,6 +165,9 @@ class RPLidarEmulator(Device):
             self.scanning, self.express = True, False
             self._pending = []
             self._next_node = self._line_free
+            step = 360.0 * self.turns_per_second * self.sample_time
+            self._turn = 0
+            self._head = self._mark(0) + self.head_rng.uniform(0.0, step)
 
     def error_reply(self, reply: bytes) -> bytes | None:
         if reply.startswith(bytes.fromhex("A55A0300000006")):
@@ -137,27 +180,41 @@ class RPLidarEmulator(Device):
         self._out.clear()  # what was queued but not yet sent never goes out
 
     # ------------------------------------------------------------------ the turning head
+    def _mark(self, turn: int) -> float:
+        """Head angle [deg, unwrapped] where turn ``turn`` begins: its index mark."""
+        return 360.0 * turn + INDEX_MARK_DEG + self.head_rng.uniform(0.0, INDEX_JITTER_DEG)
+
     def _on_scan(self, message: Any) -> None:
-        """A simulated scan (counter-clockwise beams) → one turn of clockwise nodes."""
+        """A simulated scan (counter-clockwise beams) → one turn of clockwise nodes, in the
+        order the head takes them from its index mark on."""
         ranges = np.asarray(message.ranges, dtype=np.float64)
         n = len(ranges)
         angles = message.angle_min + message.angle_increment * np.arange(n)
-        cw = np.degrees(-angles) % 360.0
-        order = np.argsort(cw, kind="stable")
-        nodes = []
-        for k, i in enumerate(order):
-            r = ranges[i]
-            ok = math.isfinite(r) and r > 0
-            nodes.append(encode_node(k == 0, 47 if ok else 0, float(cw[i]),
-                                     r * 1000.0 if ok else 0.0))
-        self._turn_from_sim = nodes
+        bearing = np.degrees(-angles) % 360.0
+        ok = np.isfinite(ranges) & (ranges > 0)
+        distance = np.where(ok, ranges * 1000.0, 0.0)
+        head = bearing - triangulation_offset_deg(distance)
+        order = np.argsort((head - self._mark(0)) % 360.0, kind="stable")
+        self._turn_from_sim = [encode_node(k == 0, 47 if ok[i] else 0, float(bearing[i]),
+                                           float(distance[i])) for k, i in enumerate(order)]
         self._last_scan = message
 
     def _room_turn(self) -> list[bytes]:
-        n = round(1.0 / (self.sample_time * self.turns_per_second))
-        cw = np.arange(n) * 360.0 / n
-        r = room_ranges(np.radians(-cw))
-        return [encode_node(k == 0, 47, float(cw[k]), float(r[k]) * 1000.0) for k in range(n)]
+        """One turn of the head in the room: samples from this turn's index mark up to the
+        next one, each at its corrected bearing."""
+        step = 360.0 * self.turns_per_second * self.sample_time * \
+            (1.0 + self.head_rng.gauss(0.0, SPEED_JITTER))
+        end = self._mark(self._turn + 1)
+        count = max(math.ceil((end - self._head) / step), 1)
+        head = self._head + step * np.arange(count)
+        self._head = float(head[-1] + step)
+        self._turn += 1
+        bearing = head % 360.0
+        for _ in range(3):  # the bearing depends on the range it finds there
+            distance = room_ranges(np.radians(-bearing)) * 1000.0
+            bearing = (head + triangulation_offset_deg(distance)) % 360.0
+        return [encode_node(k == 0, 47, float(bearing[k]), float(distance[k]))
+                for k in range(count)]
 
     def _ranges_mm(self, cw_deg: np.ndarray) -> np.ndarray:
         """What the head sees at clockwise angles (the latest simulated turn, or the room)."""

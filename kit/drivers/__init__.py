@@ -6,10 +6,23 @@ One module per device: :mod:`~kit.drivers.dpralte` (the IGV's AMC servo drives),
 IMU), :mod:`~kit.drivers.rplidar` (its lidar); :mod:`~kit.drivers.bases` puts a robot's
 motors, kinematics and odometry together (``UiabotBase``, ``IgvBase``). Check codes:
 :mod:`~kit.drivers.checksums`; the port helper: :mod:`~kit.drivers.port`; errors:
-:mod:`~kit.drivers.errors`. Every driver takes a port URL or an open port, and ``clock``
-and ``sleep`` callables so that it can run on an emulator's logical clock.
+:mod:`~kit.drivers.errors`. Every driver takes a port URL or an open port, ``baudrate=``
+(the device's default rate), and ``clock`` and ``sleep`` callables so that it can run on an
+emulator's logical clock; messages are stamped with the wall clock on a real port.
+
+Live use: :mod:`~kit.drivers.reader` runs a driver in its own thread,
+:mod:`~kit.drivers.live` opens each device as a message source, :mod:`~kit.drivers.probe`
+finds which device answers on a port (``kit probe``, ``kit record``).
 """
 
-from kit.drivers.errors import ChecksumError, DeviceError, DeviceTimeout, DriverError, ProtocolError
+from kit.drivers.errors import (
+    ChecksumError,
+    DeviceError,
+    DeviceTimeout,
+    DriverError,
+    PortError,
+    ProtocolError,
+)
 
-__all__ = ["ChecksumError", "DeviceError", "DeviceTimeout", "DriverError", "ProtocolError"]
+__all__ = ["ChecksumError", "DeviceError", "DeviceTimeout", "DriverError", "PortError",
+           "ProtocolError"]

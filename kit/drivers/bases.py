@@ -14,15 +14,29 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from kit import kinematics, msgs
+from kit.drivers import dpralte
 from kit.drivers.dpralte import DpralteDrive
 from kit.drivers.errors import DriverError
 from kit.drivers.odrive import CLOSED_LOOP_CONTROL, FULL_CALIBRATION_SEQUENCE, IDLE, ODrive
+from kit.drivers.port import Link
 from kit.odometry import WheelOdometry
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
 
-__all__ = ["BringUpError", "IgvBase", "UiabotBase"]
+__all__ = ["WHEEL_JOINTS", "BringUpError", "IgvBase", "UiabotBase"]
+
+WHEEL_JOINTS = ("right_wheel_joint", "left_wheel_joint")
+"""the wheel joints of the robots' URDFs, in the kit's (right, left) order."""
+
+
+def _wheel_state(stamp: float, positions: list[float],
+                 velocities: list[float]) -> msgs.JointState:
+    return msgs.JointState(msgs.Header(msgs.Time.from_sec(stamp), ""), WHEEL_JOINTS,
+                           np.asarray(positions, dtype=np.float64),
+                           np.asarray(velocities, dtype=np.float64))
 
 
 class BringUpError(DriverError):
@@ -56,9 +70,10 @@ class UiabotBase:
     def __init__(self, odrive: ODrive | Any, robot: str | RobotDescription = "uiabot",
                  clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep,
-                 log: Callable[[str], None] | None = None) -> None:
+                 log: Callable[[str], None] | None = None, *, baudrate: int = 115200,
+                 stamp: Callable[[], float] | None = None) -> None:
         self.odrive = odrive if isinstance(odrive, ODrive) else \
-            ODrive(odrive, clock=clock, sleep=sleep)
+            ODrive(odrive, clock=clock, sleep=sleep, baudrate=baudrate, stamp=stamp)
         self.robot = robot if isinstance(robot, RobotDescription) else load_robot(robot)
         drive = self.robot.parameters["drive"]
         self.signs = (int(drive.get("right_motor_sign", 1)), int(drive.get("left_motor_sign", 1)))
@@ -70,6 +85,11 @@ class UiabotBase:
     @property
     def clock(self) -> Callable[[], float]:
         return self.odrive.link.clock
+
+    @property
+    def stamp(self) -> Callable[[], float]:
+        """The clock odometry is stamped with (wall clock on a real port)."""
+        return self.odrive.link.stamp
 
     def _step(self, step: str, action: Callable[[], None]) -> None:
         self.log(f"{step} …")
@@ -149,12 +169,28 @@ class UiabotBase:
     def update(self) -> msgs.Odometry:
         """Read both encoders and advance the odometry."""
         right, left = self.encoder_ticks()
-        self.last_odometry = self.odometry.update(right, left, self.clock())
+        self.last_odometry = self.odometry.update(right, left, self.stamp())
         return self.last_odometry
+
+    def read_wheels(self) -> tuple[msgs.JointState, msgs.Odometry]:
+        """One reading of both encoders (``f 0``, ``f 1``): the wheels' ``JointState``
+        (positions [rad] and speeds [rad/s] at the wheel, signs undone) and the odometry it
+        advances. Needs no bring-up: the encoders count in IDLE too."""
+        d = self.robot
+        positions, velocities, counts = [], [], []
+        for axis in (0, 1):
+            turns, turns_per_s = self.odrive.feedback(axis)
+            sign = self.signs[axis]
+            positions.append(sign * turns * 2 * math.pi / d.gear_ratio)
+            velocities.append(sign * turns_per_s * 2 * math.pi / d.gear_ratio)
+            counts.append(round(sign * turns * d.encoder_resolution) % (1 << d.counter_bits))
+        t = self.stamp()
+        self.last_odometry = self.odometry.update(counts[0], counts[1], t)
+        return _wheel_state(t, positions, velocities), self.last_odometry
 
     def transform(self) -> msgs.TransformStamped:
         """``odom → base_link`` of the last update."""
-        return self.odometry.transform(self.clock())
+        return self.odometry.transform(self.stamp())
 
     def stop(self) -> None:
         """Zero speed, then both axes to IDLE."""
@@ -170,19 +206,20 @@ class IgvBase:
     encoders."""
 
     def __init__(self, port: Any, robot: str | RobotDescription = "igv", timeout: float = 0.25,
-                 clock: Callable[[], float] = time.monotonic) -> None:
-        if isinstance(port, str):
-            import serial
-
-            port = serial.serial_for_url(port, baudrate=115200, timeout=0.01)
-        self.port = port
+                 clock: Callable[[], float] = time.monotonic, *,
+                 baudrate: int = dpralte.BAUDRATE, sleep: Callable[[float], None] = time.sleep,
+                 stamp: Callable[[], float] | None = None) -> None:
+        # one port, one link: both drives share the bus (a port that cannot be opened is a
+        # PortError naming the DPRALTE, as for every other driver)
+        self.link = Link(dpralte.DEVICE, port, baudrate, 0.01, clock, sleep, stamp)
+        self.port = self.link.port
         self.robot = robot if isinstance(robot, RobotDescription) else load_robot(robot)
         drive = self.robot.parameters["drive"]
         counts = self.robot.encoder_resolution
-        self.right = DpralteDrive(port, int(drive["right_drive_address"]), 0x02, timeout,
-                                  counts, clock)
-        self.left = DpralteDrive(port, int(drive["left_drive_address"]), 0x00, timeout,
-                                 counts, clock)
+        self.right = DpralteDrive(self.link, int(drive["right_drive_address"]), 0x02, timeout,
+                                  counts)
+        self.left = DpralteDrive(self.link, int(drive["left_drive_address"]), 0x00, timeout,
+                                 counts)
         self.clock = clock
         self.odometry = WheelOdometry.for_robot(self.robot)
 
@@ -214,7 +251,19 @@ class IgvBase:
     def update(self) -> msgs.Odometry:
         right = self.right.read_position() % (1 << self.robot.counter_bits)
         left = self.left.read_position() % (1 << self.robot.counter_bits)
-        return self.odometry.update(right, left, self.clock())
+        return self.odometry.update(right, left, self.link.stamp())
+
+    def read_wheels(self) -> tuple[msgs.JointState, msgs.Odometry]:
+        """Both drives' position registers: the wheels' ``JointState`` (positions [rad]; no
+        speeds, which would take two more transactions) and the odometry they advance.
+        Needs no write access and moves nothing."""
+        d = self.robot
+        raw = [self.right.read_position(), self.left.read_position()]
+        t = self.link.stamp()
+        odometry = self.odometry.update(raw[0] % (1 << d.counter_bits),
+                                        raw[1] % (1 << d.counter_bits), t)
+        positions = [c * 2 * math.pi / d.ticks_per_wheel_turn for c in raw]
+        return _wheel_state(t, positions, []), odometry
 
     def stop(self) -> None:
         for drive in (self.right, self.left):

@@ -134,13 +134,16 @@ class BNO055:
     """A BNO055 on a serial port. :meth:`begin` runs the operating sequence (chip id,
     CONFIG, units, NDOF, wait for fusion); :meth:`read_imu` returns an ``Imu``.
 
-    The driver keeps the default units (m/s², °/s, degrees) and converts them.
+    The driver keeps the default units (m/s², °/s, degrees) and converts them. The chip
+    runs its UART at 115200 8N1 (``baudrate``); every request starts by dropping stale
+    bytes, and readings are stamped with the wall clock on a real port.
     """
 
     def __init__(self, port: Any, timeout: float = 0.1, retries: int = 5,
                  clock: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep, frame_id: str = "imu_link") -> None:
-        self.link = Link(DEVICE, port, 115200, 0.01, clock, sleep)
+                 sleep: Callable[[float], None] = time.sleep, frame_id: str = "imu_link", *,
+                 baudrate: int = 115200, stamp: Callable[[], float] | None = None) -> None:
+        self.link = Link(DEVICE, port, baudrate, 0.01, clock, sleep, stamp)
         self.timeout = timeout
         self.retries = retries
         self.frame_id = frame_id
@@ -277,7 +280,7 @@ class BNO055:
                                       w=cr * cp * cy + sr * sp * sy)
         gyro = [math.radians(_s16(d, 6 + i) / 16.0) for i in range(3)]
         accel = [_s16(d, i) / 100.0 for i in range(3)]
-        t = stamp if stamp is not None else msgs.Time.from_sec(self.link.clock())
+        t = stamp if stamp is not None else msgs.Time.from_sec(self.link.stamp())
         return msgs.Imu(
             header=msgs.Header(t, self.frame_id), orientation=orientation,
             orientation_covariance=np.diag([0.0025] * 3).ravel(),

@@ -14,6 +14,7 @@ command bits are 2. Facts and test vectors: ``shared/specs/protocols.md`` §1.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,6 +26,7 @@ __all__ = ["DEVICE", "DpralteDrive", "Frame", "FrameParser", "encode_read", "enc
            "int32_words", "rpm_to_units", "units_to_rpm"]
 
 DEVICE = "DPRALTE"
+BAUDRATE = 115200
 SOF = 0xA5
 MASTER = 0xFF
 READ, WRITE = 1, 2
@@ -130,15 +132,64 @@ class Frame:
 class FrameParser:
     """Turns any byte stream into checked frames, resynchronising after corruption.
 
-    Bytes are buffered until a whole frame is there; a bad header CRC or data CRC drops one
-    byte and the search for the next ``A5`` starts again, so a valid frame that follows
-    corrupted bytes is never lost. ``dropped`` counts the bytes thrown away.
+    Bytes are buffered until a whole frame is there. A candidate that fails its header CRC
+    or data CRC is dropped by one byte — the search for the next ``A5`` starts again one
+    byte after the candidate's start, so no byte a later frame may own is skipped.
+
+    One more rule makes truncated frames harmless: a frame never holds a whole valid header
+    inside it. A reply cut short after its header (say one announcing 3 words) would
+    otherwise take the next frame as its data, and because a header followed by its own
+    CRC leaves a zero CRC residue (as does any run of whole frames), its data CRC would
+    pass: a phantom frame, and the real one lost. So a candidate with a valid header
+    starting inside its span is dropped as soon as that header is seen (even before the
+    candidate's announced length has arrived).
+
+    A header is also held to the protocol (:meth:`_header_at`: a read or write control
+    byte, a node's or the master's address, a reply status drives send). That matters for
+    3-word data: its 6 bytes and their CRC are 8 bytes with a zero CRC residue, exactly
+    like a header, so a 3-word frame whose data starts with ``A5`` carries a header-shaped
+    block; it passes for one only if its next bytes also follow the protocol (about 1 in
+    8000 such blocks), and only then is the frame around it refused or a phantom taken.
+    ``dropped`` counts the bytes thrown away, ``errors`` the reasons.
     """
 
     def __init__(self) -> None:
         self._buffer = bytearray()
         self.dropped = 0
         self.errors: list[str] = []
+
+    def reset(self) -> None:
+        """Forget any bytes held (a new transaction: stale or partial replies go)."""
+        self.dropped += len(self._buffer)
+        self._buffer.clear()
+
+    @staticmethod
+    def _header_at(buf: bytearray, k: int) -> bool:
+        """Whether a whole header that could be real starts at ``k``: its CRC checks, its
+        control byte is a read or a write with bits 7..6 clear, its address is a node's
+        (0x00–0x3F) or the master's (0xFF), and a reply's status is one drives send."""
+        if k + 8 > len(buf) or crc16_xmodem(bytes(buf[k:k + 8])) != 0:
+            return False
+        address, control = buf[k + 1], buf[k + 2]
+        if control & 0xC0 or (control & 0x03) not in (READ, WRITE):
+            return False
+        if address == MASTER:
+            return buf[k + 3] in STATUS
+        return address <= 0x3F
+
+    def _header_inside(self, buf: bytearray, size: int) -> bool:
+        """Whether a whole valid header starts within ``buf[8:size]``."""
+        k = buf.find(SOF, 8, size)
+        while k >= 0:
+            if self._header_at(buf, k):
+                return True
+            k = buf.find(SOF, k + 1, size)
+        return False
+
+    def _drop(self, why: str) -> None:
+        self.errors.append(why)
+        self.dropped += 1
+        del self._buffer[:1]
 
     def feed(self, data: bytes) -> list[Frame]:
         self._buffer += data
@@ -156,22 +207,23 @@ class FrameParser:
             if len(buf) < 8:
                 return frames
             if crc16_xmodem(bytes(buf[:8])) != 0:  # header plus its CRC leaves no residue
-                self.errors.append("header CRC mismatch")
-                self.dropped += 1
-                del buf[:1]
+                self._drop("header CRC mismatch")
+                continue
+            if not self._header_at(buf, 0):
+                self._drop("not a header: control, address or status out of the protocol")
                 continue
             command, words = buf[2] & 0x03, buf[5]
             size = 8 + (2 * words + 2 if command == WRITE and words else 0)
+            if size > 8 and self._header_inside(buf, size):
+                self._drop("a frame cut short: another frame's header inside it")
+                continue
             if len(buf) < size:
                 return frames
-            data = bytes(buf[8:size - 2]) if size > 8 else b""
             if size > 8 and crc16_xmodem(bytes(buf[8:size])) != 0:
-                self.errors.append("data CRC mismatch")
-                self.dropped += 1
-                del buf[:1]
+                self._drop("data CRC mismatch")
                 continue
             frames.append(Frame(buf[1], command, (buf[2] >> 2) & 0x0F, buf[3], buf[4], words,
-                                data))
+                                bytes(buf[8:size - 2]) if size > 8 else b""))
             del buf[:size]
 
 
@@ -188,24 +240,36 @@ class DpralteDrive:
         Word offset of this drive's velocity command in index 0x45 (configuration).
     timeout : float
         Seconds to wait for a reply before :class:`DeviceTimeout`.
+    baudrate : int
+        The drive's serial rate (a drive setting; 115200 on the IGV).
+
+    Each transaction starts clean: bytes left from an earlier reply (stale, cut short) are
+    dropped, then the request goes out and only a reply from the master address with this
+    request's sequence number and word count is taken.
     """
 
     def __init__(self, port: Any, address: int, velocity_offset: int = 0,
                  timeout: float = 0.25, counts_per_rev: int = 400,
-                 clock: Any = time.monotonic) -> None:
-        self.link = Link(DEVICE, port, 115200, 0.01, clock)
+                 clock: Callable[[], float] = time.monotonic, *, baudrate: int = BAUDRATE,
+                 sleep: Callable[[float], None] = time.sleep,
+                 stamp: Callable[[], float] | None = None) -> None:
+        self.link = port if isinstance(port, Link) else \
+            Link(DEVICE, port, baudrate, 0.01, clock, sleep, stamp)
         self.address = address
         self.velocity_offset = velocity_offset
         self.timeout = timeout
         self.counts_per_rev = counts_per_rev
-        self.clock = clock
+        self.clock = self.link.clock
         self.sequence = 0
         self.parser = FrameParser()
 
     def transact(self, request: bytes, what: str) -> Frame:
-        """Send one request and wait for its reply (sequence echoed, status checked)."""
+        """Send one request and wait for its reply (sequence and word count echoed, status
+        checked)."""
         sequence = (request[2] >> 2) & 0x0F
+        words = request[5] if request[2] & 0x03 == READ else 0
         self.link.clear(what)
+        self.parser.reset()
         self.link.write(request, what)
         deadline = self.clock() + self.timeout
         while self.clock() < deadline:
@@ -216,6 +280,8 @@ class DpralteDrive:
                     meaning = STATUS.get(frame.status, "unknown status")
                     raise DeviceError(DEVICE, f"{what}: {meaning} (status "
                                               f"0x{frame.status:02X})", frame.status)
+                if frame.words != words:
+                    continue  # not the reply to this request
                 return frame
         raise DeviceTimeout(DEVICE, f"{what}: no reply from 0x{self.address:02X} within "
                                     f"{self.timeout:g} s")

@@ -1,8 +1,21 @@
-"""The drivers' errors: one small hierarchy, each naming the device (and the command)."""
+"""The drivers' errors: one small hierarchy, each naming the device (and the command).
+
+====================  =====================================================================
+``DeviceTimeout``     the device did not answer in time (off, frozen, wrong baud rate, wrong
+                      port)
+``ChecksumError``     a frame whose check code does not match (line noise, a loose cable)
+``ProtocolError``     bytes that do not follow the protocol (another device on the port, a
+                      reply that does not fit the request)
+``PortError``         the port itself failed: no such port, no permission, unplugged or
+                      closed while in use (a kind of ``ProtocolError``)
+``DeviceError``       the device answered with an error of its own (``code``)
+====================  =====================================================================
+"""
 
 from __future__ import annotations
 
-__all__ = ["ChecksumError", "DeviceError", "DeviceTimeout", "DriverError", "ProtocolError"]
+__all__ = ["ChecksumError", "DeviceError", "DeviceTimeout", "DriverError", "PortError",
+           "ProtocolError"]
 
 
 class DriverError(Exception):
@@ -23,6 +36,16 @@ class ChecksumError(DriverError):
 
 class ProtocolError(DriverError):
     """Bytes that do not follow the protocol (bad length, unexpected reply, closed port)."""
+
+
+class PortError(ProtocolError):
+    """The serial port failed: it cannot be opened (missing, no permission, busy) or it
+    failed while in use (the device was unplugged, the port closed). ``errno`` is the
+    operating system's error number when there is one."""
+
+    def __init__(self, device: str, message: str, errno: int | None = None) -> None:
+        super().__init__(device, message)
+        self.errno = errno
 
 
 class DeviceError(DriverError):

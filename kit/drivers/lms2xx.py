@@ -75,8 +75,13 @@ class TelegramParser:
 
     ACK and NAK bytes between telegrams are counted (``acks``, ``naks``); a candidate
     telegram is taken only when its STX, address, length and CRC all check, otherwise one
-    byte is dropped and the search goes on — so a valid telegram after corrupted bytes is
-    never lost. ``replies=True`` accepts only reply addresses (bit 7 set), as a host does.
+    byte is dropped and the search goes on one byte after the candidate's start — so a
+    valid telegram after corrupted bytes is never lost. SICK's framing has no header check,
+    so a corrupted length could hold back the telegrams behind it until up to 818 bytes
+    have come; a candidate is therefore dropped as soon as a whole valid telegram is seen
+    starting inside it (a genuine telegram holding one by chance: about 2⁻¹⁶ × its
+    framing's odds). ``replies=True`` accepts only reply addresses (bit 7 set), as a host
+    does.
     """
 
     def __init__(self, replies: bool = True) -> None:
@@ -84,6 +89,36 @@ class TelegramParser:
         self._buffer = bytearray()
         self.acks = self.naks = self.dropped = 0
         self.errors: list[str] = []
+
+    def _size(self, buf: bytearray, k: int) -> int | None:
+        """The whole size of a plausible telegram header at ``k``, or ``None``."""
+        if buf[k] != STX or len(buf) < k + 4:
+            return None
+        address, length = buf[k + 1], buf[k + 2] | buf[k + 3] << 8
+        if (self.replies and not address & 0x80) or not 1 <= length <= MAX_PAYLOAD:
+            return None
+        return 4 + length + 2
+
+    def _valid_at(self, buf: bytearray, k: int) -> bool:
+        size = self._size(buf, k)
+        if size is None or len(buf) < k + size:
+            return False
+        crc = buf[k + size - 2] | buf[k + size - 1] << 8
+        return crc16_sick(bytes(buf[k:k + size - 2])) == crc
+
+    def _telegram_inside(self, buf: bytearray, size: int) -> bool:
+        k = buf.find(STX, 1, size)
+        while k >= 0:
+            if self._valid_at(buf, k):
+                return True
+            k = buf.find(STX, k + 1, size)
+        return False
+
+    def _drop(self, why: str | None) -> None:
+        if why:
+            self.errors.append(why)
+        self.dropped += 1
+        del self._buffer[:1]
 
     def feed(self, data: bytes) -> list[Telegram]:
         buf = self._buffer
@@ -101,25 +136,21 @@ class TelegramParser:
                 continue
             if len(buf) < 4:
                 break
-            address, length = buf[1], buf[2] | buf[3] << 8
-            if (self.replies and not address & 0x80) or not 1 <= length <= MAX_PAYLOAD:
-                self.dropped += 1
-                del buf[:1]
+            size = self._size(buf, 0)
+            if size is None:
+                self._drop(None)
                 continue
-            size = 4 + length + 2
             if len(buf) < size:
+                if self._telegram_inside(buf, len(buf)):
+                    self._drop("a telegram cut short: another telegram inside it")
+                    continue
                 break
             crc = buf[size - 2] | buf[size - 1] << 8
             if crc16_sick(bytes(buf[:size - 2])) != crc:
-                self.errors.append("CRC mismatch")
-                self.dropped += 1
-                del buf[:1]
+                self._drop("CRC mismatch")
                 continue
-            out.append(Telegram(address, bytes(buf[4:size - 2])))
+            out.append(Telegram(buf[1], bytes(buf[4:size - 2])))
             del buf[:size]
-        if len(buf) > 4 * MAX_PAYLOAD:  # cannot happen with the checks above; a guard
-            self.dropped += len(buf)
-            buf.clear()
         return out
 
 
@@ -181,16 +212,20 @@ def scan_to_laserscan(scan: Scan, angle_deg: int, resolution: float, stamp: msgs
 class LMS2xx:
     """An LMS2xx on a serial port (RS-232/RS-422 adapter, pseudo-terminal, logical port).
 
+    ``baudrate`` is the rate the port is opened at (9600, the scanner's power-on rate);
     :meth:`connect` finds the scanner's rate (9600, then 38400, 19200, 500000), switches to
-    ``baudrate`` and sets the variant; :meth:`start` streams; :meth:`read_scan` returns the
+    the rate asked for and sets the variant; :meth:`start` streams; :meth:`read_scan` returns the
     next scan as a ``LaserScan``; :meth:`stop` goes back to monitoring mode.
     """
 
     def __init__(self, port: Any, timeout: float = 1.0, tries: int = 3,
                  clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep,
-                 frame_id: str = "laser_link") -> None:
-        self.link = Link(DEVICE, port, 9600, 0.01, clock, sleep)
+                 frame_id: str = "laser_link", *, baudrate: int = 9600,
+                 stamp: Callable[[], float] | None = None) -> None:
+        if baudrate not in BAUD_COMMANDS:
+            raise ValueError(f"the LMS2xx runs at {sorted(BAUD_COMMANDS)} baud; got {baudrate}")
+        self.link = Link(DEVICE, port, baudrate, 0.01, clock, sleep, stamp)
         self.timeout = timeout
         self.tries = tries
         self.frame_id = frame_id
@@ -322,7 +357,7 @@ class LMS2xx:
         self._check_status(reply, "read scan")
         scan = decode_scan(reply.payload)
         self.unit_mm = scan.unit_mm
-        t = stamp if stamp is not None else msgs.Time.from_sec(self.link.clock())
+        t = stamp if stamp is not None else msgs.Time.from_sec(self.link.stamp())
         return scan_to_laserscan(scan, self.angle, self.resolution, t, self.frame_id)
 
     def close(self) -> None:

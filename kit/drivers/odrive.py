@@ -20,8 +20,8 @@ from kit.drivers.checksums import odrive_checksum
 from kit.drivers.errors import ChecksumError, DeviceError, DeviceTimeout, ProtocolError
 from kit.drivers.port import Link
 
-__all__ = ["AXIS_STATES", "DEVICE", "ERROR_REPLIES", "ODrive", "axis_state_name",
-           "encode_line", "parse_reply"]
+__all__ = ["AXIS_STATES", "DEVICE", "ERROR_REPLIES", "ODrive", "ReplyLines", "ReplySplitter",
+           "axis_state_name", "encode_line", "parse_reply"]
 
 DEVICE = "ODrive"
 IDLE, FULL_CALIBRATION_SEQUENCE, CLOSED_LOOP_CONTROL = 1, 3, 8
@@ -37,6 +37,10 @@ AXIS_STATES: dict[str, dict[int, str]] = {
 }
 """axis states by firmware: ``"0.5.1"`` (also 0.4.x) and ``"0.5.2"`` (0.5.2 – 0.5.6)."""
 
+LF_FLIPPED = (b"*", b"J")
+"""the printable bytes one flipped bit makes of LF (0x0A ^ 0x20, 0x0A ^ 0x40)."""
+CR_FLIPPED = (b"-", b"M")
+"""the printable bytes one flipped bit makes of CR (0x0D ^ 0x20, 0x0D ^ 0x40)."""
 ERROR_REPLIES = ("invalid command format", "invalid motor", "invalid property",
                  "not implemented", "unknown command")
 
@@ -80,17 +84,38 @@ def encode_line(command: str, checksum: bool = False) -> bytes:
     return f"{command}\n".encode("ascii")
 
 
-def parse_reply(line: str, checksum: bool = False) -> str:
+def _printable(raw: bytes) -> bool:
+    return all(0x20 <= b <= 0x7E for b in raw)
+
+
+def parse_reply(line: str | bytes, checksum: bool = False) -> str:
     """A reply line (without CR LF) → its text, the checksum checked when expected.
 
-    Raises :class:`ChecksumError` for a missing or wrong checksum and :class:`DeviceError`
-    for the firmware's error replies (``invalid property`` …).
+    The line is judged as the bytes that came: the firmware's replies are printable ASCII,
+    so any other byte (or character) means line noise, and the checksum is the XOR of those
+    bytes (two bytes that would both decode to U+FFFD cannot cancel out).
+
+    Raises :class:`ChecksumError` for a missing or wrong checksum, :class:`ProtocolError`
+    for a line that is not printable ASCII, and :class:`DeviceError` for the firmware's
+    error replies (``invalid property`` …).
+
+    >>> parse_reply(b"24.087744*32", checksum=True)
+    '24.087744'
     """
-    text = line
+    if isinstance(line, str):
+        try:
+            raw = line.encode("ascii")
+        except UnicodeEncodeError:
+            raise ProtocolError(DEVICE, f"reply is not ASCII: {line[:60]!r}") from None
+    else:
+        raw = bytes(line)
+    if not _printable(raw):
+        raise ProtocolError(DEVICE, f"reply holds bytes the firmware never sends: {raw[:60]!r}")
+    text = raw.decode("ascii")
     if checksum:
-        body, star, given = line.rpartition("*")
+        body, star, given = text.rpartition("*")
         if not star or not given.isdigit():
-            raise ChecksumError(DEVICE, f"reply without a checksum: {line[:60]!r}")
+            raise ChecksumError(DEVICE, f"reply without a checksum: {text[:60]!r}")
         if odrive_checksum(body) != int(given):
             raise ChecksumError(DEVICE, f"checksum {given} does not match "
                                         f"{odrive_checksum(body)} for {body[:60]!r}")
@@ -99,6 +124,102 @@ def parse_reply(line: str, checksum: bool = False) -> str:
         if text.startswith(error):
             raise DeviceError(DEVICE, text, code)
     return text
+
+
+class ReplySplitter:
+    """Bytes → reply lines, cut on the raw bytes.
+
+    The firmware ends every reply line with CR LF and sends nothing but printable ASCII in
+    between, so a line is a run of printable bytes, and anything else (CR, LF, a byte the
+    firmware never sends) ends it: a line end damaged by noise splits two replies instead
+    of merging them. Each line comes with ``clean``: whether a CR LF comes right before it
+    (or it is the first line). A line that does not start clean may be
+    the tail of a line cut by noise, and the XOR checksum cannot tell (a cut-off prefix
+    such as ``11`` XORs to zero), so :class:`ODrive` trusts it only after a good line.
+    A line longer than ``limit`` bytes (the firmware's 256) is dropped, counted in
+    ``dropped``.
+
+    >>> ReplySplitter().feed(b"1.5*31\\r\\n2.0 0.0\\r*31\\r\\n")
+    [(b'1.5*31', True), (b'2.0 0.0', True), (b'*31', False)]
+    """
+
+    def __init__(self, limit: int = 256) -> None:
+        self.limit = limit
+        self.dropped = 0
+        self._line = bytearray()
+        self._gap = bytearray()  # the bytes between the last line and the one coming
+        self._first = True
+
+    def feed(self, data: bytes) -> list[tuple[bytes, bool]]:
+        out: list[tuple[bytes, bool]] = []
+        line, gap = self._line, self._gap
+        for b in data:
+            if 0x20 <= b <= 0x7E:
+                line.append(b)
+                if len(line) > self.limit:
+                    self.dropped += len(line)
+                    line.clear()
+                continue
+            if line:
+                gap_ok = (self._first and not gap) or gap.endswith(b"\r\n")
+                out.append((bytes(line), gap_ok))
+                line.clear()
+                gap.clear()
+                self._first = False
+            gap.append(b)
+        return out
+
+
+class ReplyLines:
+    """Bytes → checked reply texts: :class:`ReplySplitter`'s lines through
+    :func:`parse_reply`. Corrupted lines and the firmware's debug prints are counted in
+    ``rejected`` and skipped; the firmware's error replies raise :class:`DeviceError`.
+
+    A line that did not start clean is taken only after a good line (junk between the two
+    aside): then what damaged the line end was the good line's LF — dropped, or turned by
+    one flipped bit into this line's first byte (``*`` or ``J``, which no reply starts
+    with), so such a line is also tried without that byte; likewise a line ending in what a
+    flipped bit makes of CR (``-`` or ``M``, which no checksum ends with).
+
+    >>> ReplyLines(checksum=True).feed(b"24.087744*32\\r\\n1.0*3\\r\\n")
+    ['24.087744']
+    """
+
+    def __init__(self, checksum: bool = True, limit: int = 256) -> None:
+        self.checksum = checksum
+        self.splitter = ReplySplitter(limit)
+        self.rejected = 0
+        self._good = False
+
+    def _accept(self, raw: bytes, clean: bool) -> str | None:
+        text: str | None = None
+        if clean or self._good:
+            candidates = [raw]
+            if not clean and raw[:1] in LF_FLIPPED and len(raw) > 1:
+                candidates.append(raw[1:])
+            if raw[-1:] in CR_FLIPPED and len(raw) > 1:  # this line's own CR, flipped
+                candidates.append(raw[:-1])
+            for candidate in candidates:
+                try:
+                    text = parse_reply(candidate, self.checksum)
+                    break
+                except (ChecksumError, ProtocolError):
+                    continue
+        if text is not None:
+            self._good = True
+        elif clean:
+            self._good = False  # a damaged line: what follows it unclean may be its tail
+        if text is None:
+            self.rejected += 1
+        return text
+
+    def feed(self, data: bytes) -> list[str]:
+        out = []
+        for raw, clean in self.splitter.feed(data):
+            text = self._accept(raw, clean)
+            if text is not None:
+                out.append(text)
+        return out
 
 
 class ODrive:
@@ -117,12 +238,13 @@ class ODrive:
 
     def __init__(self, port: Any, timeout: float = 0.5, checksum: bool = True,
                  firmware: str = "0.5.6", clock: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep) -> None:
-        self.link = Link(DEVICE, port, 115200, 0.01, clock, sleep)
+                 sleep: Callable[[float], None] = time.sleep, *, baudrate: int = 115200,
+                 stamp: Callable[[], float] | None = None) -> None:
+        self.link = Link(DEVICE, port, baudrate, 0.01, clock, sleep, stamp)
         self.timeout = timeout
         self.checksum = checksum
         self.firmware = firmware
-        self._partial = b""
+        self.replies = ReplyLines(checksum)
         self.rejected = 0
 
     # ------------------------------------------------------------------ lines
@@ -135,28 +257,19 @@ class ODrive:
         deadline = link.clock() + self.timeout
         lines: list[str] = []
         while True:
-            *complete, self._partial = self._partial.split(b"\r\n")
-            for i, raw in enumerate(complete):
-                if not raw:
-                    continue
-                try:
-                    lines.append(parse_reply(raw.decode("ascii", "replace"), self.checksum))
-                except ChecksumError:
-                    self.rejected += 1  # a corrupted reply, or a debug print of the firmware
-                    continue
-                if len(lines) == count:
-                    self._partial = b"\r\n".join([*complete[i + 1:], self._partial])
-                    return lines
-            if len(self._partial) > 1024:
-                self._partial = b""
+            before = self.replies.rejected
+            lines += self.replies.feed(link.read_some(what))
+            self.rejected += self.replies.rejected - before
+            if len(lines) >= count:
+                return lines[:count]
             if link.clock() >= deadline:
                 raise DeviceTimeout(DEVICE, f"{what}: no reply within {self.timeout:g} s")
-            self._partial += link.read_some(what)
 
     def query(self, command: str, lines: int = 1) -> list[str]:
-        """Send ``command`` and return its ``lines`` reply lines (texts)."""
+        """Send ``command`` and return its ``lines`` reply lines (texts); stale bytes are
+        dropped first."""
         self.link.clear(command)
-        self._partial = b""
+        self.replies = ReplyLines(self.checksum)
         self.send(command)
         return self._lines(command, lines)
 

@@ -1,0 +1,234 @@
+"""The RPLidar A1 driver: health, info, the standard and express scans, whole turns."""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from collections.abc import Callable
+from typing import Any
+
+from kit import msgs
+from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError
+from kit.drivers.port import Link
+from kit.drivers.rplidar._protocol import (
+    BAUDRATE,
+    CAPSULE,
+    DEVICE,
+    EXPRESS_SCAN,
+    GET_HEALTH,
+    GET_INFO,
+    GET_SAMPLERATE,
+    RESET,
+    SCAN,
+    STOP,
+    CapsuleParser,
+    Node,
+    NodeParser,
+    _Resynchronising,
+    encode_request,
+    parse_descriptor,
+)
+from kit.drivers.rplidar._turns import Turn, TurnAssembler, revolution_to_scan
+
+
+class RPLidar:
+    """An RPLidar A1 on a serial port: health, info, the standard scan, and full turns as
+    counter-clockwise ``LaserScan`` messages (:meth:`read_scan`).
+
+    Parameters
+    ----------
+    port : str or serial port
+        ``"/dev/ttyUSB0"``, a pseudo-terminal, any pyserial URL, or an open port.
+    timeout : float
+        Seconds to wait for a reply, and for a complete turn, before
+        :class:`DeviceTimeout`.
+    clock, sleep : callables
+        What the driver waits with (wall time, or an emulator's logical clock).
+    frame_id, beams : str, int
+        The scans' frame and number of beams.
+    baudrate : int
+        115200, the A1's only rate (other models: 256000).
+    stamp : callable, optional
+        Seconds for header stamps; the wall clock by default on a real port (the logical
+        clock when ``clock`` is one).
+    min_nodes, min_span_deg : int, float
+        The plausibility limits of a turn (:class:`TurnAssembler`).
+
+    The A1's motor runs while DTR is low; a pseudo-terminal cannot set DTR (the ``OSError``
+    is caught), and its emulator keeps the motor running.
+    """
+
+    def __init__(self, port: Any, timeout: float = 1.0,
+                 clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep,
+                 frame_id: str = "laser_link", beams: int = 360, *, baudrate: int = BAUDRATE,
+                 stamp: Callable[[], float] | None = None, min_nodes: int = 100,
+                 min_span_deg: float = 330.0) -> None:
+        self.link = Link(DEVICE, port, baudrate, 0.01, clock, sleep, stamp)
+        self.timeout = timeout
+        self.frame_id = frame_id
+        self.beams = beams
+        self.parser: _Resynchronising = NodeParser(strict=True)
+        self.turns = TurnAssembler(min_nodes=min_nodes, min_span_deg=min_span_deg)
+        self.scanning = False
+        self.last_turn: Turn | None = None
+        self.skipped_before_reply = 0
+        """bytes skipped while looking for a reply's descriptor."""
+        self._ready: list[Turn] = []
+        self._pending = bytearray()
+
+    def _motor(self, run: bool) -> None:
+        try:
+            self.link.port.dtr = not run
+        except (OSError, AttributeError):
+            pass  # a pseudo-terminal cannot set DTR (protocols.md §0)
+        except self.link.errors as exc:  # the port itself failed
+            with self.link.guard("motor"):
+                raise exc
+
+    def _clear(self, what: str) -> None:
+        self.link.clear(what)
+        self._pending.clear()
+
+    def _await_descriptor(self, kind: int, what: str) -> tuple[int, int]:
+        """Skip bytes until a response descriptor of type ``kind``; (length, mode)."""
+        link, buf = self.link, self._pending
+        deadline = link.clock() + self.timeout
+        while True:
+            i = buf.find(b"\xa5\x5a")
+            while i >= 0 and len(buf) - i >= 7:
+                length, mode, reply = parse_descriptor(bytes(buf[i:i + 7]))
+                if reply == kind:
+                    self.skipped_before_reply += i
+                    del buf[:i + 7]
+                    return length, mode
+                i = buf.find(b"\xa5\x5a", i + 1)
+            keep = i if i >= 0 else max(len(buf) - 1, 0)  # an A5 may start the next read
+            self.skipped_before_reply += keep
+            del buf[:keep]
+            if link.clock() >= deadline:
+                raise DeviceTimeout(DEVICE, f"{what}: no reply within {self.timeout:g} s "
+                                            f"(no descriptor of type 0x{kind:02X})")
+            buf += link.read_some(what)
+
+    def _take(self, n: int, what: str) -> bytes:
+        buf = self._pending
+        if len(buf) < n:
+            buf += self.link.read_exact(n - len(buf), self.timeout, what)
+        data = bytes(buf[:n])
+        del buf[:n]
+        return data
+
+    def _command(self, command: int, what: str, expect_type: int | None,
+                 payload: bytes | None = None, length: int | None = None) -> bytes:
+        self._clear(what)
+        self.link.write(encode_request(command, payload), what)
+        if expect_type is None:
+            return b""
+        size, mode = self._await_descriptor(expect_type, what)
+        if mode == 1:
+            return b""  # a stream follows
+        if length is not None and size != length:
+            raise ProtocolError(DEVICE, f"{what}: a {size}-byte reply, expected {length}")
+        return self._take(size, what)
+
+    def health(self) -> tuple[int, int]:
+        """(status 0 good / 1 warning / 2 error, error code)."""
+        data = self._command(GET_HEALTH, "get health", 0x06, length=3)
+        return data[0], int.from_bytes(data[1:3], "little")
+
+    def info(self) -> dict[str, Any]:
+        data = self._command(GET_INFO, "get info", 0x04, length=20)
+        return {"model": data[0], "firmware": (data[2], data[1]), "hardware": data[3],
+                "serial": data[4:20].hex().upper()}
+
+    def sample_time_us(self) -> tuple[int, int]:
+        """Microseconds per sample: (standard scan, express scan)."""
+        data = self._command(GET_SAMPLERATE, "get sample rate", 0x15, length=4)
+        return int.from_bytes(data[0:2], "little"), int.from_bytes(data[2:4], "little")
+
+    def reset(self, wait: float = 2.0) -> None:
+        self._command(RESET, "reset", None)
+        self.link.sleep(wait)
+        self._clear("reset")
+
+    def _begin(self, request: bytes, kind: int, record: int, what: str,
+               parser: _Resynchronising) -> None:
+        self._motor(True)
+        self._command(STOP, "stop", None)
+        self.link.sleep(0.002)
+        self._clear("stop")
+        self.link.write(request, what)
+        size, mode = self._await_descriptor(kind, what)
+        if (size, mode) != (record, 1):
+            raise ProtocolError(DEVICE, f"{what}: the descriptor announces {size}-byte "
+                                        f"records in mode {mode}, not a stream of {record}-byte "
+                                        f"records")
+        self.parser = parser
+        self.turns.reset()
+        self._ready = []
+        self.scanning = True
+
+    def start(self) -> None:
+        """Motor on, a scan left running stopped, health checked (a device in error is reset
+        once), standard scan on."""
+        self._motor(True)
+        self._command(STOP, "stop", None)
+        self.link.sleep(0.002)
+        self._clear("stop")
+        status, code = self.health()
+        if status == 2:
+            self.reset()
+            status, code = self.health()
+            if status == 2:
+                raise DeviceError(DEVICE, f"health: error 0x{code:04X} after a reset", code)
+        self._begin(encode_request(SCAN), 0x81, 5, "scan", NodeParser(strict=True))
+
+    def start_express(self) -> None:
+        """Like :meth:`start`, in express mode (legacy capsules, ``A5 82 05 00 00 00 00 00``):
+        more samples per second; the kit's A1 normally uses the standard scan."""
+        self._begin(encode_request(EXPRESS_SCAN, bytes(5)), 0x82, CAPSULE, "express scan",
+                    CapsuleParser())
+
+    def stop(self) -> None:
+        self._command(STOP, "stop", None)
+        self.link.sleep(0.002)
+        self._clear("stop")
+        self.scanning = False
+        self._motor(False)
+
+    def read_turn(self) -> Turn:
+        """The next complete, plausible turn (:class:`Turn`), or :class:`DeviceTimeout`
+        after ``timeout`` seconds saying what came instead."""
+        if not self.scanning:
+            raise ProtocolError(DEVICE, "read: call start() first")
+        link = self.link
+        deadline = link.clock() + self.timeout
+        while not self._ready:
+            if link.clock() >= deadline:
+                refused = sum(getattr(self.parser, "refused", Counter()).values())
+                raise DeviceTimeout(DEVICE, f"read scan: no complete turn within "
+                                            f"{self.timeout:g} s (since the scan started: "
+                                            f"{self.turns.summary()}; {self.parser.skipped} "
+                                            f"bytes skipped, {refused} impossible nodes)")
+            data = link.read_some("read scan")
+            if self._pending:
+                data, self._pending = bytes(self._pending) + data, bytearray()
+            self._ready.extend(self.turns.push(self.parser.feed(data), link.stamp()))
+        self.last_turn = self._ready.pop(0)
+        return self.last_turn
+
+    def read_revolution(self) -> list[Node]:
+        """The nodes of the next complete turn (from one start flag to the next)."""
+        return list(self.read_turn().nodes)
+
+    def read_scan(self) -> msgs.LaserScan:
+        """The next complete turn as a counter-clockwise ``LaserScan``, stamped when its
+        first node arrived."""
+        turn = self.read_turn()
+        scan_time = max(turn.ended - turn.started, 1e-3)
+        return revolution_to_scan(turn.nodes, msgs.Time.from_sec(turn.started), self.frame_id,
+                                  self.beams, scan_time)
+
+    def close(self) -> None:
+        self.link.close()

@@ -1,0 +1,218 @@
+"""Live use: drivers in reader threads, the compass as ``sensor_msgs/Imu``, ``kit probe``
+finding each emulated device, and ``kit record`` on the emulated Uiabot."""
+
+from __future__ import annotations
+
+import math
+import queue
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from hardware.emulators import Clock, LogicalPort, PtyServer
+from hardware.emulators.bno055 import BNO055Emulator
+from hardware.emulators.dpralte import DpralteBusEmulator
+from hardware.emulators.lms2xx import LMS2xxEmulator
+from hardware.emulators.odrive import ODriveEmulator
+from hardware.emulators.os5000 import Os5000Emulator
+from hardware.emulators.rplidar import RPLidarEmulator
+from kit import cli, msgs
+from kit.drivers import DeviceTimeout, PortError, bno055, os5000
+from kit.drivers.checksums import nmea_checksum
+from kit.drivers.probe import probe
+from kit.drivers.reader import Reader
+
+
+@pytest.mark.parametrize(("heading", "pitch", "roll"), [
+    (0.0, 0.0, 0.0), (90.0, 0.0, 0.0), (320.5, 0.2, -18.3), (212.4, 2.5, -14.0),
+    (10.0, -45.0, 170.0), (270.0, 30.0, 60.0)])
+def test_the_compass_orientation_is_the_aerospace_attitude_in_rep103_frames(heading, pitch,
+                                                                          roll):
+    """Independently: the attitude of a body x forward, y right, z down in north-east-down
+    (yaw = heading, then pitch, then roll), turned into east-north-up and x forward, y left,
+    z up by the two axis swaps."""
+    body = f"C{heading:.1f}P{pitch:.1f}R{roll:.1f}T20.0"
+    reading = os5000.parse_sentence(f"${body}*{nmea_checksum(body)}")
+    q = os5000.reading_to_imu(reading, msgs.Time()).orientation
+    ned_frd = Rotation.from_euler("ZYX", [heading, pitch, roll], degrees=True).as_matrix()
+    enu_ned = np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1]])
+    frd_flu = np.diag([1, -1, -1])
+    expected = Rotation.from_matrix(enu_ned @ ned_frd @ frd_flu).as_quat()  # x, y, z, w
+    got = np.array([q.x, q.y, q.z, q.w])
+    assert min(np.abs(got - expected).max(), np.abs(got + expected).max()) < 1e-9
+
+
+def test_a_heading_only_sentence_gives_yaw_with_roll_and_pitch_unknown():
+    r = os5000.parse_sentence("$HCHDT,212.4,T*2C")
+    m = os5000.reading_to_imu(r, msgs.Time(5, 0))
+    yaw = 2 * math.atan2(m.orientation.z, m.orientation.w)
+    assert math.remainder(yaw - os5000.heading_to_yaw(212.4), 2 * math.pi) == pytest.approx(0)
+    assert m.orientation_covariance[0] == pytest.approx(math.pi ** 2)
+    assert m.angular_velocity_covariance[0] == -1 and m.linear_acceleration_covariance[0] == -1
+
+
+@pytest.mark.parametrize(("line", "why"), [
+    ("$OHPR,90.0,nan,inf,20.0", "malformed sentence"),  # the issue's case
+    ("$OHPR,90.0,1e5,0.0,20.0", "malformed sentence"),
+    ("$OHPR,90.0,95.0,0.0,20.0", r"P = 95 out of range \[-90, 90\]"),
+    ("$C90.0P0.0R190.0T20.0", r"R = 190 out of range \[-180, 180\]"),
+    ("$C400.0P0.0R0.0T20.0", r"C = 400 out of range \[0, 360\]"),
+    ("$HCHDT,-3.0,T", r"C = -3 out of range"),
+    ("$C90.0P0.0R0.0T999.0", r"T = 999 out of range"),
+    ("$C90.0C10.0P0.0", "a field twice"),
+])
+def test_every_sentence_format_is_held_to_the_ranges(line, why):
+    body = line[1:]
+    with pytest.raises(os5000.ProtocolError, match=why):
+        os5000.parse_sentence(f"${body}*{nmea_checksum(body)}")
+
+
+def test_format_2_follows_the_field_mask_and_the_emulator_sends_every_field():
+    clock = Clock()
+    device = Os5000Emulator(temperature=21.0)
+    compass = os5000.Os5000(LogicalPort(device, clock), clock=clock)
+    compass.set_fields(1 + 2 + 4 + 8 + 64 + 256)
+    compass.set_format(2)
+    clock.sleep(0.2)
+    compass.link.clear("skip the sentences already on their way")
+    reading = compass.read()
+    assert device.fields == 335 and reading.temperature_c == 21.0
+    # level, heading 90° (east): the Earth's field is to the body's left (−y, to the right)
+    assert reading.extra["Mx"] == pytest.approx(0.0, abs=0.01)
+    assert reading.extra["My"] == pytest.approx(-200.0) and reading.extra["Az"] == 1.0
+    compass.set_format(1)
+    clock.sleep(0.2)
+    compass.link.clear("skip")
+    assert set(compass.read().extra) == {"Mx", "My", "Mz", "Ax", "Ay", "Az"}
+
+
+def test_a_reader_thread_delivers_stamped_messages_on_the_logical_clock():
+    clock = Clock()
+    imu = bno055.BNO055(LogicalPort(BNO055Emulator(), clock), clock=clock, sleep=clock.sleep)
+    imu.begin()
+    got = []
+    reader = Reader("bno055", lambda: [("/imu", imu.read_imu())],
+                    lambda topic, t, m: got.append((topic, t, m)), limit=50).start()
+    reader.join(10.0)
+    assert reader.error is None and reader.messages == 50 and not reader.alive
+    times = [t for _, t, _ in got]
+    assert times == sorted(times) and times[-1] == round(clock.now * 1e9)
+    assert all(m.header.stamp.to_nsec() == t for _, t, m in got)
+
+
+def test_a_reader_counts_timeouts_and_ends_on_a_port_failure():
+    calls = {"n": 0}
+    errors = []
+
+    def read():
+        calls["n"] += 1
+        if calls["n"] <= 2:
+            raise DeviceTimeout("X", "nothing yet")
+        if calls["n"] == 3:
+            return [("/imu", msgs.Imu(header=msgs.Header(msgs.Time(1, 0), "imu_link")))]
+        raise PortError("X", "read: the port failed (unplugged)")
+
+    q: queue.Queue = queue.Queue()
+    reader = Reader("x", read, q, on_error=errors.append).start()
+    reader.join(2.0)
+    assert (reader.timeouts, reader.messages) == (2, 1) and q.get_nowait()[1] == 10**9
+    assert isinstance(reader.error, PortError) and errors == [reader.error]
+    with pytest.raises(TypeError, match=r"deliver must be a queue\.Queue or a callable"):
+        Reader("x", read, deliver=[])
+    with pytest.raises(ValueError, match="period must be >= 0 s"):
+        Reader("x", read, q, period=-1.0)
+
+
+def test_probe_names_each_emulated_device():
+    devices = {"odrive": ODriveEmulator(), "rplidar": RPLidarEmulator(),
+               "bno055": BNO055Emulator(), "dpralte": DpralteBusEmulator(),
+               "os5000": Os5000Emulator(), "lms2xx": LMS2xxEmulator()}
+    answers = {}
+    with PtyServer(list(devices.values())) as server:
+        threads = [threading.Thread(target=lambda n=name, p=path: answers.__setitem__(
+            n, probe(p))) for name, path in zip(devices, server.paths, strict=True)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(30.0)
+    assert {name: (a.device, a.baudrate) for name, a in answers.items()} == {
+        "odrive": ("odrive", 115200), "rplidar": ("rplidar", 115200),
+        "bno055": ("bno055", 115200), "dpralte": ("dpralte", 115200),
+        "os5000": ("os5000", 19200), "lms2xx": ("lms2xx", 9600)}
+    assert answers["lms2xx"].detail.startswith("LMS291;S05")
+
+
+def test_kit_probe_on_the_command_line(capsys):
+    with PtyServer(ODriveEmulator(vbus_voltage=24.0)) as server:
+        assert cli.main(["probe", server.path]) == 0
+        assert f"{server.path}: odrive at 115200 baud (bus voltage 24.0 V)" in \
+            capsys.readouterr().out
+    assert cli.main(["probe", "/dev/ttyKIT_NONE"]) == 2
+    assert "no such port" in capsys.readouterr().err
+
+
+def test_kit_record_refuses_bad_ports_with_a_clear_message(tmp_path, capsys):
+    assert cli.main(["record", "lidar=/dev/ttyUSB0", "--out", str(tmp_path / "b")]) == 2
+    assert "unknown device 'lidar'" in capsys.readouterr().err
+    assert cli.main(["record", "rplidar=/dev/ttyKIT_NONE", "--out", str(tmp_path / "b")]) == 1
+    assert "RPLidar: cannot open" in capsys.readouterr().err
+    assert not (tmp_path / "b").exists()
+
+
+@pytest.mark.slow
+def test_kit_record_on_the_emulated_uiabot_gives_a_bag_rosbags_reads(tmp_path, capsys):
+    """The issue's acceptance test: 10 s of the emulated Uiabot (its devices on
+    pseudo-terminals, served in real time by another process) recorded by ``kit record``."""
+    from rosbags.highlevel import AnyReader
+
+    from kit import rosconv
+
+    proc = subprocess.Popen([sys.executable, "-m", "hardware.emulators", "uiabot"],
+                            stdout=subprocess.PIPE, text=True)
+    try:
+        ports = [f"{name}={path}" for name, path in
+                 (proc.stdout.readline().split() for _ in range(3))]
+        start = time.time()
+        out = tmp_path / "uiabot"
+        assert cli.main(["record", *ports, "--duration", "10", "--out", str(out)]) == 0
+        end = time.time()
+    finally:
+        proc.terminate()
+        proc.wait(10)
+    types = {"/scan": "sensor_msgs/msg/LaserScan", "/imu": "sensor_msgs/msg/Imu",
+             "/joint_states": "sensor_msgs/msg/JointState", "/odom": "nav_msgs/msg/Odometry",
+             "/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage"}
+    stamps: dict[str, list[float]] = {t: [] for t in types}
+    with AnyReader([out], default_typestore=rosconv.typestore()) as reader:
+        assert {c.topic: c.msgtype for c in reader.connections} == types
+        static = next(c for c in reader.connections if c.topic == "/tf_static")
+        assert static.ext.offered_qos_profiles[0].durability.name == "TRANSIENT_LOCAL"
+        for conn, time_ns, raw in reader.messages():
+            m = reader.deserialize(raw, conn.msgtype)
+            header = m.transforms[0].header if conn.topic.startswith("/tf") else m.header
+            assert header.stamp.sec * 10**9 + header.stamp.nanosec == time_ns
+            stamps[conn.topic].append(time_ns * 1e-9)
+            if conn.topic == "/tf_static":
+                children = {t.child_frame_id for t in m.transforms}
+                assert {"laser_link", "imu_link", "base_footprint"} <= children
+    for topic, t in stamps.items():
+        assert start - 1 <= min(t) and max(t) <= end + 1, topic  # wall-clock stamps
+
+    def rate(topic: str) -> float:
+        t = np.sort(stamps[topic])
+        return (len(t) - 1) / (t[-1] - t[0])
+
+    rates = {t: round(rate(t), 1) for t in ("/imu", "/scan", "/joint_states")}
+    assert rates["/imu"] >= 95.0, rates  # while the lidar streams
+    assert rates["/scan"] == pytest.approx(5.5, abs=0.5), rates
+    assert rates["/joint_states"] == pytest.approx(50.0, rel=0.1), rates
+    assert len(stamps["/odom"]) == len(stamps["/tf"]) == len(stamps["/joint_states"])
+    printed = capsys.readouterr().out
+    assert f"wrote {out}" in printed and "/imu" in printed
+    assert Path(out, "metadata.yaml").exists()
