@@ -4,7 +4,9 @@ Run as root inside the fresh mount, PID, network, IPC and UTS namespaces that ``
 made, before any of the submission's code: builds the sandbox's root from the plan that
 :func:`grader.sandbox.mount_plan` wrote to ``PLAN_FD`` (the same allow-list bubblewrap
 builds), makes it read-only, enters it, drops to the sandbox's own user id (no capabilities,
-no new privileges) and executes ``COMMAND`` there.
+no new privileges) and runs ``COMMAND`` there as its child, staying on as the namespace's
+first process to reap orphans (as bubblewrap's own init does), so that a fork bomb's dead
+processes do not keep counting against the process limit.
 
 Standard library only, and run by path, so nothing of the kit is imported with root's rights.
 Host paths are opened (``O_PATH``) before anything is mounted and bound through
@@ -97,8 +99,8 @@ def build(plan: dict[str, Any]) -> None:
         kind, dest = item["kind"], ROOT + item["dest"]
         if kind == "bind":
             _bind(fds[item["source"]], dest, os.path.isdir(f"/proc/self/fd/{fds[item['source']]}"))
-        elif kind == "dir":
-            os.makedirs(dest, exist_ok=True)
+        elif kind == "dir" and not os.path.isdir(dest):
+            os.makedirs(dest)
             os.chmod(dest, item["mode"])
         elif kind == "symlink":
             os.makedirs(os.path.dirname(dest), exist_ok=True)
@@ -139,8 +141,23 @@ def main(argv: list[str]) -> int:
         plan = json.loads(fh.read())
     build(plan)
     enter(plan)
-    os.execve(argv[2], argv[2:], plan["env"])
-    return 1  # not reached
+    child = os.fork()
+    if child == 0:
+        os.execve(argv[2], argv[2:], plan["env"])
+    return reap(child)
+
+
+def reap(child: int) -> int:
+    """As the namespace's first process: collect every orphan until ``child`` ends, then end
+    with its status (a signal as 128 + n; everything else in the namespace dies with us)."""
+    while True:
+        try:
+            pid, status = os.waitpid(-1, 0)
+        except ChildProcessError:
+            return 1
+        if pid == child:
+            return 128 + os.WTERMSIG(status) if os.WIFSIGNALED(status) else \
+                os.WEXITSTATUS(status)
 
 
 if __name__ == "__main__":

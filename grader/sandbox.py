@@ -108,11 +108,13 @@ def _real(path: str | Path) -> str:
 
 
 def _package_dirs() -> list[str]:
+    """Where the kit's packages are installed (a folder holding ``__init__.py`` each)."""
     dirs: list[str] = []
     for name in PACKAGES:
         spec = importlib.util.find_spec(name)
-        if spec is not None and spec.submodule_search_locations:
-            dirs.extend(_real(p) for p in spec.submodule_search_locations)
+        origin = spec.origin if spec is not None else None
+        if origin and origin.endswith("__init__.py"):
+            dirs.append(_real(Path(origin).parent))
     return dirs
 
 
@@ -185,14 +187,17 @@ def _with_parents(plan: list[Mount]) -> list[Mount]:
     ``dir`` steps of mode 0755 (bubblewrap would make them 0700, unreadable to the
     submission's user)."""
     made = {"/"}
+    bound: list[str] = []
     out = []
     for m in plan:
         for parent in reversed(Path(m.dest).parents):
-            if str(parent) not in made:
+            if str(parent) not in made and not _covered(str(parent), bound):
                 out.append(Mount("dir", str(parent)))
                 made.add(str(parent))
         out.append(m)
         made.add(m.dest)
+        if m.kind == "bind":  # what lies below a bound folder is the host's, already there
+            bound.append(m.dest)
     return out
 
 
