@@ -3,10 +3,11 @@
 Run as root inside the fresh mount, PID, network, IPC and UTS namespaces that ``unshare``
 made, before any of the submission's code: builds the sandbox's root from the plan that
 :func:`grader.sandbox.mount_plan` wrote to ``PLAN_FD`` (the same allow-list bubblewrap
-builds), makes it read-only, enters it, drops to the sandbox's own user id (no capabilities,
-no new privileges) and runs ``COMMAND`` there as its child, staying on as the namespace's
-first process to reap orphans (as bubblewrap's own init does), so that a fork bomb's dead
-processes do not keep counting against the process limit.
+builds) and makes it read-only; then a child enters it, drops to the sandbox's own user id (no
+capabilities, no new privileges) and executes ``COMMAND`` there, while this first process
+stays outside as root, reaping orphans (as bubblewrap's own init does, so a fork bomb's dead
+processes stop counting against the process limit) and keeping the parent-death signal that
+kills the whole namespace when ``unshare`` dies.
 
 Standard library only, and run by path, so nothing of the kit is imported with root's rights.
 Host paths are opened (``O_PATH``) before anything is mounted and bound through
@@ -140,10 +141,12 @@ def main(argv: list[str]) -> int:
     with os.fdopen(fd, "rb") as fh:
         plan = json.loads(fh.read())
     build(plan)
-    enter(plan)
     child = os.fork()
     if child == 0:
+        enter(plan)
         os.execve(argv[2], argv[2:], plan["env"])
+    # this first process keeps root's identity: changing it would clear the parent-death
+    # signal that ``unshare --kill-child`` set, and the namespace must die with ``unshare``
     return reap(child)
 
 

@@ -401,7 +401,8 @@ class Sandbox:
         if _STOPPING.is_set():
             raise Interrupted("grading is being stopped")
         command = self.command(argv)
-        env = self.env if self.layer == "rlimits" else {"PATH": "/usr/bin:/bin"}
+        env = self.env if self.layer == "rlimits" else {
+            "PATH": "/usr/bin:/bin", "KIT_GRADER_PID": self.env.get("KIT_GRADER_PID", "")}
         try:
             proc = subprocess.Popen(command, stdin=stdin, stdout=stdout, stderr=stderr,
                                     cwd=self.home if self.scratch else "/", env=env,
