@@ -59,7 +59,7 @@ def test_the_secret_comes_from_the_environment_or_a_file(folder, capsys, monkeyp
     assert read_secret(None, {"KIT_COURSE_SECRET": "env-secret"}) == "env-secret"
     assert read_secret(None, {}) is None
     (tmp_path / "empty.txt").write_text("\n", encoding="utf-8")
-    with pytest.raises(SecretError, match="empty.txt is empty"):
+    with pytest.raises(SecretError, match=r"empty\.txt is empty"):
         read_secret(tmp_path / "empty.txt")
     with pytest.raises(SecretError, match="cannot read the course secret from"):
         read_secret(tmp_path / "missing.txt")
