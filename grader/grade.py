@@ -38,7 +38,15 @@ from grader import serialize
 from grader.checker import explain
 from grader.guard import stub_source
 from grader.results import CaseOutcome, ExerciseResult, SubmissionResult
-from grader.sandbox import ISOLATING, Interrupted, Limits, Sandbox, detect_layer, stopping
+from grader.sandbox import (
+    ISOLATING,
+    MPL_DIR,
+    Interrupted,
+    Limits,
+    Sandbox,
+    detect_layer,
+    stopping,
+)
 from grader.session import Run, run_worker
 from grader.spec import Case, Exercise, LabSpec, course_seed
 from grader.submissions import Notebook, read_notebook, student_id
@@ -118,7 +126,7 @@ def worker_env(layer: str) -> dict[str, str]:
            "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
            "NUMBA_NUM_THREADS": "1", "KIT_GRADER_PID": str(os.getpid())}
     if layer in ISOLATING:
-        env["MPLCONFIGDIR"] = "/tmp/matplotlib"
+        env["MPLCONFIGDIR"] = MPL_DIR
     return env
 
 

@@ -110,6 +110,12 @@ def build(plan: dict[str, Any]) -> None:
             _tmpfs(dest, item["size"], item["mode"])
         elif kind == "data":
             _data(index, item)
+        elif kind == "file":
+            os.makedirs(os.path.dirname(dest), exist_ok=True)
+            with open(dest, "w", encoding="utf-8") as fh:
+                fh.write(item["data"])
+            os.chmod(dest, item["mode"])
+            os.chown(dest, plan["uid"], plan["uid"])
         elif kind == "dev":
             _dev(dest, fds)
         elif kind == "proc":
