@@ -172,7 +172,14 @@ def _bundle(args: argparse.Namespace) -> int:
 
 
 def _add_grade(sub: Any) -> None:
-    p = sub.add_parser("grade", help="grade submitted notebooks into a gradebook CSV")
+    p = sub.add_parser(
+        "grade", help="grade submitted notebooks into a gradebook CSV",
+        description="Grade submitted notebooks, each in its own sandbox, into a gradebook CSV "
+                    "and JSON results beside it (resumable: a re-run keeps finished rows).",
+        epilog="A folder may hold one notebook per student (alice.ipynb) or one folder per "
+               "student (alice/01-kinematics.ipynb): there only the notebook of the lab being "
+               "graded counts, the others are listed as skipped. Exit status: 0 every row "
+               "graded, 1 some rows are grader errors, 2 nothing graded, 130/143 interrupted.")
     p.add_argument("submissions", nargs="+", help="notebooks, or folders of notebooks")
     p.add_argument("--lab", required=True, help="which lab: 01, 1 or lab01")
     p.add_argument("--out", default="gradebook.csv", help="gradebook CSV (gradebook.csv)")
