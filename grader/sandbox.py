@@ -317,6 +317,22 @@ def _parent_death_signal() -> None:
 
 # ------------------------------------------------------------------ one sandbox
 
+@functools.cache
+def _remove_stale_scratch() -> None:
+    """The rlimits layer's scratch folders left by graders that were killed (SIGKILL leaves
+    no chance to clean up): removed by the next grader, once per process."""
+    for folder in Path(tempfile.gettempdir()).glob("kit-grade-*-*"):
+        pid = folder.name.split("-")[2]
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+        except PermissionError:
+            pass  # alive, another user's
+
+
 @dataclass
 class Sandbox:
     """How to start one command inside a layer, with a file system built from ``plan``."""
@@ -338,7 +354,8 @@ class Sandbox:
         plan = mount_plan(uid, limits, files, stubs) if layer in ISOLATING else []
         box = cls(layer, limits, plan, {"PATH": "/usr/bin:/bin", **env}, uid)
         if layer == "rlimits":
-            box.scratch = Path(tempfile.mkdtemp(prefix="kit-grade-"))
+            _remove_stale_scratch()
+            box.scratch = Path(tempfile.mkdtemp(prefix=f"kit-grade-{os.getpid()}-"))
             for name, text in (files or {}).items():
                 (box.scratch / name).write_text(text, encoding="utf-8")
         box.env.update(HOME=box.home, TMPDIR=str(box.scratch) if box.scratch else "/tmp")

@@ -5,6 +5,7 @@ that binds although the grader runs as root; private, bounded /tmp and home; no 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -129,3 +130,17 @@ def test_the_rlimits_layer_works_in_a_scratch_folder_it_removes():
     box.finish(proc)
     assert out.decode().strip() == str(box.scratch.resolve())
     assert not box.scratch.exists()
+
+
+def test_scratch_left_by_a_killed_rlimits_grader_is_removed_by_the_next(tmp_path, monkeypatch):
+    from grader import sandbox
+
+    monkeypatch.setattr(sandbox.tempfile, "gettempdir", lambda: str(tmp_path))
+    dead = tmp_path / "kit-grade-999999999-abc"  # above any pid the kernel hands out
+    alive = tmp_path / f"kit-grade-{os.getppid()}-def"
+    for folder in (dead, alive):
+        folder.mkdir()
+        (folder / "nb.ipynb").write_text("x")
+    sandbox._remove_stale_scratch.cache_clear()
+    sandbox._remove_stale_scratch()
+    assert not dead.exists() and alive.exists()
