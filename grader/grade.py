@@ -24,8 +24,10 @@ exactly.
 
 from __future__ import annotations
 
+import builtins
 import functools
 import importlib
+import inspect
 import os
 import signal
 import traceback
@@ -145,8 +147,6 @@ def run_submission(spec: LabSpec, notebook: Notebook, plan: Plan, limits: Limits
 
 def _reference_signature(ex: Exercise) -> str:
     """The reference's parameters as a student would write them (no annotations)."""
-    import inspect
-
     try:
         params = inspect.signature(ex.reference).parameters.values()
     except (TypeError, ValueError):
@@ -158,8 +158,6 @@ def _reference_signature(ex: Exercise) -> str:
 
 def _builtin_name(text: Any) -> str:
     """A hidden case's exception type, believed only if it is a built-in exception's name."""
-    import builtins
-
     klass = getattr(builtins, str(text), None) if str(text).isidentifier() else None
     return str(text) if isinstance(klass, type) and issubclass(klass, BaseException) \
         else "an exception"
