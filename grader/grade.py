@@ -284,6 +284,10 @@ def classify(run: Run, layer: str, limits: Limits, timeout: float) -> tuple[str,
         elif last and status == "crashed":
             reason += f": {last[0][:200]}"
         if run.public is not None:
+            # an exit code or a signal is the submission's to choose: while it held hidden
+            # inputs, they could carry them out, so only the kind of ending is told
+            if status == "crashed":
+                reason = "the process ended"
             reason = f"{reason} while running the hidden cases; graded as far as it ran"
         return status, reason
     errors = run.public.get("cell_errors", [])

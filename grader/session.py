@@ -122,8 +122,8 @@ def _answer(pipes: _Pipes, run: Run, phase: str) -> dict[str, Any] | None:
         return None
     try:
         answer = json.loads(line)
-    except ValueError as exc:
-        run.unreadable = f"its {phase} answer is not JSON ({exc})"
+    except ValueError:  # no parser detail: its positions are the submission's to choose
+        run.unreadable = f"its {phase} answer is not JSON"
         return None
     if not isinstance(answer, dict) or answer.get("phase") != phase:
         run.unreadable = f"its answer is not the {phase} phase's"

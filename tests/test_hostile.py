@@ -131,6 +131,21 @@ def new_cells(tmp: Path) -> dict[str, list[str]]:
             "        sys.stderr.flush()\n"
             "        os.kill(os.getpid(), signal.SIGSEGV)\n"
             "    return float('inf') if angular == 0 else linear / angular\n"],
+        "leaks_through_an_exit_code": [
+            "import os\n"
+            "def turning_radius(linear, angular):\n"
+            "    if (linear, angular) not in {(1.0, 0.5), (1.0, -0.5), (0.5, 0.0), (0.0, 1.0)}:\n"
+            "        os._exit(int(abs(linear) * 1000) % 256)\n"
+            "    return float('inf') if angular == 0 else linear / angular\n"],
+        "leaks_through_the_answer_channel": [
+            "import os, sys\n"
+            "def turning_radius(linear, angular):\n"
+            "    if (linear, angular) not in {(1.0, 0.5), (1.0, -0.5), (0.5, 0.0), (0.0, 1.0)}:\n"
+            "        pad = ' ' * int(abs(linear) * 1000)\n"
+            "        os.write(int(sys.argv[1]), ('{\"phase\": \"hidden\",' + pad + 'x\\n')"
+            ".encode())\n"
+            "        os._exit(0)\n"
+            "    return float('inf') if angular == 0 else linear / angular\n"],
         "litters_tmp": [
             "import os, tempfile\n"
             f"for d in ('/tmp', '/dev/shm', tempfile.gettempdir(), '.'):\n"
@@ -327,7 +342,8 @@ def test_nothing_of_a_hidden_case_leaves_the_grader(graded):
     ex = load_lab("lab01").exercise("turning_radius")
     data = json.loads((tmp / "out" / "gradebook.json").read_text(encoding="utf-8"))
     csv_rows = (tmp / "out" / "gradebook.csv").read_text(encoding="utf-8").splitlines()
-    for student in ("leaks_hidden_inputs", "leaks_through_a_crash"):
+    for student in ("leaks_hidden_inputs", "leaks_through_a_crash",
+                    "leaks_through_an_exit_code", "leaks_through_the_answer_channel"):
         texts = [json.dumps(next(s for s in data["submissions"] if s["student"] == student)),
                  (tmp / "out" / "feedback" / f"{student}.md").read_text(encoding="utf-8"),
                  *[row for row in csv_rows if row.startswith(student)]]
@@ -340,10 +356,13 @@ def test_nothing_of_a_hidden_case_leaves_the_grader(graded):
     leaky = results["leaks_hidden_inputs"].exercises["lab01.turning_radius"]
     assert {c.message for c in leaky.cases if not c.public} == {"raised ValueError"}
     assert all("INPUTS" in c.message for c in leaky.cases if c.public)  # public: shown
-    crash = results["leaks_through_a_crash"]
-    assert crash.status == "crashed" and "hidden cases" in crash.reason, crash.reason
-    assert "INPUTS" not in crash.reason
-    assert crash.exercises["lab01.turning_radius"].points == 2 * 4 / 8  # its public cases
+    for student in ("leaks_through_a_crash", "leaks_through_an_exit_code",
+                    "leaks_through_the_answer_channel"):
+        crash = results[student]
+        assert crash.status == "crashed", crash.reason
+        assert crash.reason == ("the process ended while running the hidden cases; graded as "
+                                "far as it ran")  # not its signal, exit code or answer
+        assert crash.exercises["lab01.turning_radius"].points == 2 * 4 / 8  # public cases
 
 
 def test_nothing_is_left_in_tmp_or_dev_shm(graded):
