@@ -16,6 +16,7 @@ Host paths are opened (``O_PATH``) before anything is mounted and bound through
 
 from __future__ import annotations
 
+import base64
 import ctypes
 import json
 import os
@@ -112,8 +113,9 @@ def build(plan: dict[str, Any]) -> None:
             _data(index, item)
         elif kind == "file":
             os.makedirs(os.path.dirname(dest), exist_ok=True)
-            with open(dest, "w", encoding="utf-8") as fh:
-                fh.write(item["data"])
+            with open(dest, "wb") as fh:
+                fh.write(base64.b64decode(item["blob"]) if item.get("blob") else
+                         item["data"].encode("utf-8"))
             os.chmod(dest, item["mode"])
             os.chown(dest, plan["uid"], plan["uid"])
         elif kind == "dev":

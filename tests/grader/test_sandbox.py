@@ -144,3 +144,36 @@ def test_scratch_left_by_a_killed_rlimits_grader_is_removed_by_the_next(tmp_path
     sandbox._remove_stale_scratch.cache_clear()
     sandbox._remove_stale_scratch()
     assert not dead.exists() and alive.exists()
+
+
+NUMBA = r"""
+import json
+from sim import Simulation, raycast
+sim = Simulation(world="square", robot="uiabot", seed=1)
+for _ in sim.run(0.3):
+    pass
+stats = raycast._cast_scan.stats
+print(json.dumps({"hits": sum(stats.cache_hits.values()),
+                  "misses": sum(stats.cache_misses.values())}))
+"""
+
+
+@pytest.mark.parametrize("layer", ISOLATING)
+def test_numba_finds_its_compiled_lidar_in_the_sandbox(layer):
+    """The simulated lidar's compiled functions are loaded from numba's cache beside their
+    source, not compiled again in every sandbox."""
+    if not layer_works(layer):
+        pytest.skip(f"the {layer} layer cannot run here")
+    env = {"NUMBA_NUM_THREADS": "1", "KIT_FAST": "1"}
+    # on the host first: a fresh checkout has no cache yet, and this run writes it
+    subprocess.run([sys.executable, "-c", NUMBA], capture_output=True, check=True,
+                   env={**os.environ, **env})
+    box = Sandbox.create(layer, Limits(), env)
+    assert any(m.kind == "tmpfs" and m.dest.endswith("sim/__pycache__") for m in box.plan)
+    proc = box.start([sys.executable, "-I", "-B", "-c", NUMBA], subprocess.DEVNULL,
+                     subprocess.PIPE, subprocess.PIPE)
+    out, err = proc.communicate(timeout=300)
+    box.finish(proc)
+    assert out, err.decode()
+    stats = json.loads(out.decode().splitlines()[-1])
+    assert stats == {"hits": 1, "misses": 0}
