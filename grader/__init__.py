@@ -6,7 +6,9 @@ In a lab notebook::
     check = checker("lab01")
     check(forward_kinematics)
 
-For instructors, the ``grader`` command: ``grader release``, ``grader grade``.
+For instructors, the ``grader`` command: ``grader release`` (with ``check-release``),
+``grader grade`` (sandboxed, into a resumable gradebook), ``grader feedback`` and
+``grader bundle`` (the student hand-out).
 """
 
 from grader.checker import checker

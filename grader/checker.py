@@ -10,24 +10,31 @@ and after an exercise::
     check(forward_kinematics)
 
 ``check`` runs the exercise's public cases in the kernel and prints one verdict: every case
-passed; or "not implemented yet"; or the first failing case with what was expected, what came
-back and a hint. It never raises, so a student's notebook always runs top to bottom. While a
-submission is being graded (``KIT_GRADING=1``) it does nothing: grading runs the cases itself.
-Under nbgrader's autograder (``NBGRADER_EXECUTION=autograde``) a failing check raises, since
-that is how nbgrader scores a test cell.
+passed; or "not implemented yet"; or how many cases fail and, for up to three of them, what was
+expected, what came back and a hint. It never raises, so a student's notebook always runs top
+to bottom. While a submission is being graded (``KIT_GRADING=1``) it does nothing: grading runs
+the cases itself. Under nbgrader's autograder (``NBGRADER_EXECUTION=autograde``) a failing
+check raises, since that is how nbgrader scores a test cell.
+
+``checker(lab)`` puts the lab's references behind guards (:mod:`grader.guard`): while ``check``
+runs an exercise, calling the kit's reference for it fails with the kit's explanation, as it
+does while grading — so a ✓ here is never a 0 there.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from grader import runall
+from grader import guard, runall
 from grader.compare import compare, matches
 from grader.spec import Case, Exercise, LabSpec, load_lab
+
+SHOWN_FAILURES = 3
 
 __all__ = ["CaseResult", "Checker", "checker", "run_case"]
 
@@ -82,8 +89,10 @@ def judge(exercise: Exercise, case: Case, got: Any) -> CaseResult:
 
 
 def run_case(exercise: Exercise, fn: Callable[..., Any], case: Case) -> CaseResult:
+    """One public case: the student's function with the references refusing, then the
+    verdict (computed outside that scope, with the real references)."""
     try:
-        got = fn(*case.args, **case.kwargs)
+        got = guard.call_refusing(fn, *case.args, **case.kwargs)
     except NotImplementedError:
         return CaseResult(case.name, False, "not implemented", "not implemented yet")
     except Exception as exc:
@@ -110,6 +119,13 @@ class Checker:
         if not callable(fn):
             print(f"✗ {ex.id}: check() needs the function itself, not {type(fn).__name__}")
             return
+        reference = guard.reference_name(fn)
+        if reference is not None:
+            verdict = f"✗ {ex.id}: {guard.explanation(reference)}"
+            print(verdict)
+            if os.environ.get("NBGRADER_EXECUTION") == "autograde":
+                raise AssertionError(verdict)
+            return
         results = [run_case(ex, fn, case) for case in ex.public]
         if any(r.status == "not implemented" for r in results):
             print(f"… {ex.id}: not implemented yet")
@@ -122,17 +138,19 @@ class Checker:
             print(f"✓ {ex.id}{label}: all {len(results)} public cases pass "
                   f"({ex.points:g} points when graded, with hidden cases too)")
             return
-        first = failed[0]
+        shown = "\n".join(f"  case '{r.case}': {r.message}" for r in failed[:SHOWN_FAILURES])
+        more = len(failed) - SHOWN_FAILURES
         verdict = (f"✗ {ex.id}{label}: {len(failed)} of {len(results)} public cases fail.\n"
-                   f"  case '{first.case}': {first.message}")
+                   f"{shown}" + (f"\n  … and {more} more" if more > 0 else ""))
         print(verdict)
         if os.environ.get("NBGRADER_EXECUTION") == "autograde" and not label:
             raise AssertionError(verdict)  # nbgrader scores a test cell by whether it raises
 
 
 def checker(lab: str | int) -> Checker:
-    """The ``check`` function of a lab's notebook; in IPython it also lets Run All go past
-    unfinished exercises (:mod:`grader.runall`)."""
+    """The ``check`` function of a lab's notebook: guards the lab's references and, in
+    IPython, lets Run All go past unfinished exercises (:mod:`grader.runall`)."""
     spec = load_lab(lab)
+    guard.install(spec.guarded_names(), namespaces=[sys._getframe(1).f_globals])
     runall.install(ex.function for ex in spec.exercises)
     return Checker(spec)

@@ -1,127 +1,68 @@
-"""``grader grade``: run each submission in a sandbox and score its outputs here.
+"""``grader grade`` for one notebook: run it in a sandbox, score its outputs here.
 
-For every submitted notebook: read it (a malformed notebook still gets a row), start
-``python -m grader.worker`` in a scratch directory inside the strongest sandbox this machine
-offers (:mod:`grader.sandbox`), hand it the code cells and the cases' inputs (public cases and
-the student's own seeded hidden cases), and judge the outputs it leaves in its result file
-against the ``kit`` references, in this process. A crash, a hang, a memory bomb or a
-submission that exits early still yields a row with its reason.
+The steps of :func:`grade_notebook`, each its own function:
 
-Scoring: each exercise earns ``points × passed cases / all cases`` (public and hidden).
+1. :func:`~grader.submissions.read_notebook` — a malformed notebook still gets a row;
+2. :func:`plan_cases` — the public cases and the student's own hidden cases, seeded from the
+   course secret and the student id;
+3. :func:`guarded_modules` — the lab's references, whose files the sandbox replaces by stubs
+   and whose real source travels in the request;
+4. :func:`grader.session.run_worker` — the worker runs the cells and calls the exercise
+   functions, public cases first, hidden ones only after that answer is in;
+5. :func:`score_exercise` — every output judged against the ``kit`` reference, in this
+   process; a hidden case's message is a verdict, never its inputs, printed text or an
+   exception's words;
+6. :func:`classify` — the submission's status and reason (a crash, a hang, a memory bomb or
+   an early exit still yields a row, graded as far as it ran).
 
-Grading a class is resumable and idempotent: after every submission the gradebook and the
-JSON results are rewritten atomically, and a re-run reuses every finished result whose
-notebook (SHA-256 of its bytes) and grading set-up (the lab's specification, the course
-secret, the limits) are unchanged — so an interrupted run continues where it stopped and a
-re-run grades only what changed.
+Anything unexpected while grading one submission becomes its row with status ``grader error``
+(naming the student and the reason); it never stops the class.
+
+Scoring: each exercise earns ``points × passed cases / all cases`` (public and hidden),
+exactly.
 """
 
 from __future__ import annotations
 
-import csv
-import hashlib
+import builtins
+import functools
+import importlib
 import inspect
-import io
-import json
 import os
 import signal
-import subprocess
-import sys
-import tempfile
-import threading
-from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ThreadPoolExecutor, as_completed
-from dataclasses import asdict, dataclass, field
+import traceback
+from collections.abc import Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-import nbformat
-
 from grader import serialize
 from grader.checker import explain
-from grader.sandbox import Limits, Sandbox, detect_layer
-from grader.spec import Case, Exercise, LabSpec, course_seed, load_lab
+from grader.guard import stub_source
+from grader.results import CaseOutcome, ExerciseResult, SubmissionResult
+from grader.sandbox import (
+    ISOLATING,
+    MPL_DIR,
+    Interrupted,
+    Limits,
+    Sandbox,
+    detect_layer,
+    stopping,
+)
+from grader.session import Run, run_worker
+from grader.spec import Case, Exercise, LabSpec, course_seed
+from grader.submissions import Notebook, read_notebook, student_id
 
-__all__ = ["ExerciseResult", "Limits", "SubmissionResult", "find_submissions", "grade_class",
-           "grade_notebook", "grade_submissions", "write_gradebook", "write_results"]
+__all__ = ["DEFAULT_MEMORY_MB", "DEFAULT_TIMEOUT", "classify", "grade_notebook",
+           "grade_submissions", "guarded_modules", "plan_cases", "run_submission",
+           "score_exercise"]
 
 DEFAULT_TIMEOUT = 120.0
 DEFAULT_MEMORY_MB = 2048
-RESULT_LIMIT = 64 * 1024 * 1024
-STATUSES = ("ok", "timeout", "memory", "crashed", "output limit", "malformed notebook")
+MESSAGE_LIMIT = 500
+PACKAGES_WITH_REFERENCES = ("kit.", "sim.", "hardware.")
 
-
-@dataclass
-class CaseOutcome:
-    case: str
-    public: bool
-    passed: bool
-    message: str = ""
-
-
-@dataclass
-class ExerciseResult:
-    id: str
-    points: float
-    max_points: float
-    status: str
-    """passed, partly passed, wrong, not implemented, missing function, error, timeout,
-    memory, not graded."""
-    reason: str
-    cases: list[CaseOutcome] = field(default_factory=list)
-
-
-@dataclass
-class SubmissionResult:
-    student: str
-    path: str
-    status: str
-    """one of STATUSES."""
-    reason: str
-    exercises: dict[str, ExerciseResult] = field(default_factory=dict)
-    cell_errors: list[dict[str, Any]] = field(default_factory=list)
-    sandbox: str = ""
-    sha256: str = ""
-
-    @property
-    def total(self) -> float:
-        return round(float(sum(e.points for e in self.exercises.values())), 2)
-
-    def to_dict(self) -> dict[str, Any]:
-        data = asdict(self)
-        data["total"] = self.total
-        return data
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> SubmissionResult:
-        exercises = {k: ExerciseResult(**{**v, "cases": [CaseOutcome(**c) for c in v["cases"]]})
-                     for k, v in data["exercises"].items()}
-        return cls(data["student"], data["path"], data["status"], data["reason"], exercises,
-                   list(data.get("cell_errors", [])), data.get("sandbox", ""),
-                   data.get("sha256", ""))
-
-
-def student_id(path: Path, lab: str) -> str:
-    """``alice.ipynb`` → alice; ``alice/01-kinematics.ipynb`` → alice. (A notebook whose
-    metadata has ``{"kit": {"student": "..."}}`` is graded under that id instead.)"""
-    stem = path.stem
-    if stem[:2].isdigit() and stem[:2] == lab[-2:]:
-        return path.parent.name or stem
-    return stem
-
-
-def find_submissions(paths: Sequence[Path], lab: str) -> list[Path]:
-    """Notebooks named by ``paths``: files as given, folders searched for ``*.ipynb``."""
-    found: list[Path] = []
-    for p in paths:
-        if p.is_dir():
-            found.extend(sorted(q for q in p.rglob("*.ipynb")
-                                if ".ipynb_checkpoints" not in q.parts))
-        elif p.exists():
-            found.append(p)
-        else:
-            raise FileNotFoundError(f"{p}: no such submission")
-    return found
+Plan = dict[str, tuple[tuple[Case, ...], tuple[Case, ...]]]
 
 
 def _not_graded(spec: LabSpec, status: str, reason: str) -> dict[str, ExerciseResult]:
@@ -129,10 +70,80 @@ def _not_graded(spec: LabSpec, status: str, reason: str) -> dict[str, ExerciseRe
             for ex in spec.exercises}
 
 
-def _cases(ex: Exercise, student: str, secret: str | None) -> list[tuple[Case, bool]]:
-    hidden = ex.hidden_cases(course_seed(ex.id, student, secret))
-    return [(c, True) for c in ex.public] + [(c, False) for c in hidden]
+# ------------------------------------------------------------------ 2. the cases
 
+def plan_cases(spec: LabSpec, student: str, secret: str | None) -> Plan:
+    """Each exercise's (public, hidden) cases; the hidden ones are the student's own."""
+    return {ex.id: (ex.public, ex.hidden_cases(course_seed(ex.id, student, secret)))
+            for ex in spec.exercises}
+
+
+# ------------------------------------------------------------------ 3. the references
+
+@functools.lru_cache(maxsize=32)
+def _module_entry(name: str) -> tuple[str, str, bool]:
+    module = importlib.import_module(name)
+    path = str(Path(str(module.__file__)).resolve())
+    return path, Path(path).read_text(encoding="utf-8"), hasattr(module, "__path__")
+
+
+def guarded_modules(names: Iterable[str]) -> dict[str, dict[str, Any]]:
+    """The kit modules holding guarded names: their real path, source and kind. Inside the
+    sandbox their files are stubs; the worker gets the source from the request."""
+    modules = {q.partition(":")[0] for q in names}
+    entries = {}
+    for name in sorted(m for m in modules if m.startswith(PACKAGES_WITH_REFERENCES)):
+        path, source, package = _module_entry(name)
+        entries[name] = {"path": path, "source": source, "package": package}
+    return entries
+
+
+# ------------------------------------------------------------------ 4. running it
+
+def _encoded(cases: Sequence[Case]) -> list[dict[str, Any]]:
+    return [{"args": serialize.encode(c.args), "kwargs": serialize.encode(c.kwargs)}
+            for c in cases]
+
+
+def _requests(spec: LabSpec, notebook: Notebook, plan: Plan, timeout: float
+              ) -> tuple[dict[str, Any], dict[str, Any]]:
+    names = spec.guarded_names()
+    first = {
+        "modules": guarded_modules(names),
+        "blocked": names,
+        "cells": [dict(c) for c in notebook.cells],
+        # each exercise may lose at most one case to an endless loop: half the budget in all
+        "case_time_limit": min(10.0, timeout / (2 * max(1, len(spec.exercises)))),
+        "exercises": [{"id": ex.id, "function": ex.function, "cases": _encoded(plan[ex.id][0])}
+                      for ex in spec.exercises],
+    }
+    second = {"exercises": [{"id": ex.id, "function": ex.function,
+                             "cases": _encoded(plan[ex.id][1])} for ex in spec.exercises]}
+    return first, second
+
+
+def worker_env(layer: str) -> dict[str, str]:
+    """The worker's whole environment (nothing of the grader's: no secret, no tokens)."""
+    env = {"LANG": "C.UTF-8", "KIT_GRADING": "1", "KIT_FAST": "1", "MPLBACKEND": "Agg",
+           "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+           "NUMBA_NUM_THREADS": "1", "KIT_GRADER_PID": str(os.getpid())}
+    if layer in ISOLATING:
+        env["MPLCONFIGDIR"] = MPL_DIR
+    return env
+
+
+def run_submission(spec: LabSpec, notebook: Notebook, plan: Plan, limits: Limits,
+                   timeout: float, layer: str) -> tuple[Run, str]:
+    """Run one notebook in a fresh sandbox; returns what happened and the layer."""
+    first, second = _requests(spec, notebook, plan, timeout)
+    stubs = {entry["path"]: stub_source(module, spec.name)
+             for module, entry in first["modules"].items()}
+    box = Sandbox.create(layer, limits, worker_env(layer),
+                         files={notebook.path.name: notebook.text}, stubs=stubs)
+    return run_worker(box, first, lambda public: second, timeout), layer
+
+
+# ------------------------------------------------------------------ 5. scoring
 
 def _reference_signature(ex: Exercise) -> str:
     """The reference's parameters as a student would write them (no annotations)."""
@@ -145,364 +156,225 @@ def _reference_signature(ex: Exercise) -> str:
     return f"({', '.join(shown)})"
 
 
-def _score(ex: Exercise, cases: list[tuple[Case, bool]], outcome: dict[str, Any]
-           ) -> ExerciseResult:
-    if "missing" in outcome:
-        return ExerciseResult(ex.id, 0.0, ex.points, "missing function", str(outcome["missing"]))
-    raw = outcome.get("cases", [])
-    if not isinstance(raw, list) or len(raw) != len(cases):
-        return ExerciseResult(ex.id, 0.0, ex.points, "error", "the worker's answer was incomplete")
-    results: list[CaseOutcome] = []
-    statuses: list[str] = []
-    hidden_index = 0
-    for (case, public), got in zip(cases, raw, strict=True):
-        if not public:
-            hidden_index += 1
-        label = case.name if public else f"hidden case {hidden_index}"
-        status = str(got.get("status")) if isinstance(got, dict) else "error"
-        if status != "returned":
-            message = str(got.get("message", ""))[:500] if isinstance(got, dict) else ""
-            if "TypeError" in message and "argument" in message:
-                message += (f"; the exercise calls it as {ex.function}"
-                            f"{_reference_signature(ex)}, the notebook defines "
-                            f"{ex.function}{outcome.get('signature', '(?)')}")
-            statuses.append(status)
-            results.append(CaseOutcome(label, public, False, message))
-            continue
-        try:
-            value = serialize.decode(got["value"])
-        except serialize.DecodeError as exc:
-            statuses.append("error")
-            results.append(CaseOutcome(label, public, False, f"unreadable output: {exc}"))
-            continue
-        verdict = explain(ex, case, value)
-        if verdict is None:
-            statuses.append("passed")
-            results.append(CaseOutcome(label, public, True))
-            continue
-        statuses.append("wrong")
-        problem, hint = verdict
-        # a hidden case's message names neither its inputs nor its expected output
-        message = problem if public else "wrong output"
-        results.append(CaseOutcome(label, public, False, message + (f"; {hint}" if hint else "")))
+def _builtin_name(text: Any) -> str:
+    """A hidden case's exception type, believed only if it is a built-in exception's name."""
+    klass = getattr(builtins, str(text), None) if str(text).isidentifier() else None
+    return str(text) if isinstance(klass, type) and issubclass(klass, BaseException) \
+        else "an exception"
+
+
+def _failure(got: dict[str, Any], public: bool, limit: float) -> tuple[str, str]:
+    """(status, message) of a case that returned nothing; hidden ones in fixed words."""
+    status = str(got.get("status"))
+    fixed = {"timeout": f"did not return within {limit:g} s",
+             "not implemented": "not implemented yet", "memory": "ran out of memory"}
+    if status in fixed:
+        return status, fixed[status]
+    if status == "exit":
+        return "error", str(got.get("message", ""))[:MESSAGE_LIMIT] if public else \
+            "called sys.exit"
+    if status == "unencodable":
+        return "error", ("returned something that cannot be graded: "
+                         f"{str(got.get('message', ''))[:MESSAGE_LIMIT]}" if public else
+                         "returned a value that cannot be graded")
+    if status == "error":
+        return "error", str(got.get("message", ""))[:MESSAGE_LIMIT] if public else \
+            f"raised {_builtin_name(got.get('type'))}"
+    return "error", "the worker's answer was not understood"
+
+
+def _judge(ex: Exercise, case: Case, got: Any, label: str, public: bool, limit: float
+           ) -> tuple[str, CaseOutcome]:
+    if not isinstance(got, dict) or got.get("status") != "returned":
+        status, message = _failure(got if isinstance(got, dict) else {}, public, limit)
+        return status, CaseOutcome(label, public, False, message)
+    try:
+        value = serialize.decode(got["value"])
+    except (serialize.DecodeError, KeyError) as exc:
+        return "error", CaseOutcome(label, public, False, f"unreadable output: {exc}"
+                                    if public else "unreadable output")
+    verdict = explain(ex, case, value)
+    if verdict is None:
+        return "passed", CaseOutcome(label, public, True)
+    problem, hint = verdict
+    message = problem if public else "wrong output"  # never a hidden case's numbers
+    return "wrong", CaseOutcome(label, public, False, message + (f"; {hint}" if hint else ""))
+
+
+def _case_outcomes(ex: Exercise, cases: Sequence[Case], answers: Any, public: bool,
+                   lost: str, limit: float, signature: str) -> list[tuple[str, CaseOutcome]]:
+    labels = [c.name if public else f"hidden case {i}" for i, c in enumerate(cases, start=1)]
+    if not isinstance(answers, list) or len(answers) != len(cases):
+        return [("error", CaseOutcome(label, public, False, lost)) for label in labels]
+    out = []
+    for case, got, label in zip(cases, answers, labels, strict=True):
+        status, outcome = _judge(ex, case, got, label, public, limit)
+        if public and status == "error" and "TypeError" in outcome.message \
+                and "argument" in outcome.message:
+            outcome.message += (f"; the exercise calls it as {ex.function}"
+                                f"{_reference_signature(ex)}, the notebook defines "
+                                f"{ex.function}{signature}")
+        out.append((status, outcome))
+    return out
+
+
+def score_exercise(ex: Exercise, cases: tuple[Sequence[Case], Sequence[Case]],
+                   public: dict[str, Any], hidden: dict[str, Any] | None, lost: str,
+                   limit: float) -> ExerciseResult:
+    """Points and reason of one exercise from the worker's answers (``hidden`` is ``None``
+    when the run ended before the hidden cases answered; ``lost`` then says why)."""
+    if "missing" in public:
+        return ExerciseResult(ex.id, 0.0, ex.points, "missing function",
+                              str(public["missing"])[:MESSAGE_LIMIT])
+    signature = str(public.get("signature", "(?)"))[:200]
+    scored = _case_outcomes(ex, cases[0], public.get("cases"), True,
+                            "the worker's answer was incomplete", limit, signature)
+    scored += _case_outcomes(ex, cases[1], None if hidden is None else hidden.get("cases"),
+                             False, lost, limit, signature)
+    statuses = [s for s, _ in scored]
+    results = [r for _, r in scored]
     passed = sum(r.passed for r in results)
-    points = round(ex.points * passed / len(results), 2)
+    points = ex.points * passed / len(results) if results else 0.0
     if passed == len(results):
         return ExerciseResult(ex.id, points, ex.points, "passed",
                               f"all {len(results)} cases pass", results)
     for status in ("not implemented", "timeout", "memory", "error", "wrong"):
         if status in statuses:
             first = next(r for r, s in zip(results, statuses, strict=True) if s == status)
-            if status == "not implemented":
-                reason = "not implemented yet"
-            else:
-                reason = (f"{len(results) - passed} of {len(results)} cases fail; "
-                          f"{first.case}: {first.message}")
+            reason = "not implemented yet" if status == "not implemented" else (
+                f"{len(results) - passed} of {len(results)} cases fail; "
+                f"{first.case}: {first.message}")
             label = "partly passed" if passed and status == "wrong" else status
             return ExerciseResult(ex.id, points, ex.points, label, reason, results)
     return ExerciseResult(ex.id, points, ex.points, "error", "unknown outcome", results)
 
 
-def _read_cells(path: Path) -> tuple[list[str], str, str | None]:
-    try:
-        raw = path.read_bytes()
-        nb = nbformat.reads(raw.decode("utf-8"), as_version=4)
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
-    except OSError:
-        raise
-    except Exception as exc:  # nbformat raises several types for bad JSON and bad schema
-        raise ValueError(f"{type(exc).__name__}: {str(exc)[:200]}") from None
-    named = nb.metadata.get("kit", {}).get("student") if isinstance(
-        nb.metadata.get("kit"), dict) else None
-    return ([c.source for c in nb.cells if c.cell_type == "code"],
-            hashlib.sha256(raw).hexdigest(), str(named) if named else None)
+# ------------------------------------------------------------------ 6. the verdict
+
+def _ending(run: Run, layer: str, limits: Limits) -> tuple[str, str]:
+    """How the process ended, as (status, reason), in words a hidden case cannot colour."""
+    if run.timed_out:
+        return "timeout", "did not finish within its time limit (an endless loop?)"
+    if run.too_large:
+        return "output limit", "its results were larger than the grader reads"
+    if run.unreadable:
+        return "crashed", f"the submission's process left an unreadable result: {run.unreadable}"
+    code = run.returncode if run.returncode is not None else 0
+    if layer != "rlimits" and 128 < code < 128 + 65:
+        code = -(code - 128)  # the sandbox reports its child's signal as 128 + n
+    if code < 0:
+        name = signal.Signals(-code).name
+        if name == "SIGXCPU":
+            return "timeout", f"used more than {limits.cpu_seconds} s of CPU"
+        return "crashed", f"the process was killed by {name}"
+    if code != 0:
+        return "crashed", f"the process exited with code {code} before reporting"
+    return "crashed", "the process ended without reporting results"
 
 
-def _tail(path: Path, limit: int = 4096) -> str:
-    try:
-        with open(path, "rb") as fh:
-            fh.seek(max(0, path.stat().st_size - limit))
-            return fh.read().decode("utf-8", "replace")
-    except OSError:
-        return ""
+def classify(run: Run, layer: str, limits: Limits, timeout: float) -> tuple[str, str]:
+    """The submission's status and reason."""
+    if run.public is None or run.hidden is None:
+        status, reason = _ending(run, layer, limits)
+        if status == "timeout" and run.timed_out:
+            reason = f"did not finish within {timeout:g} s (an endless loop?)"
+        last = run.stderr_tail.strip().splitlines()[-1:] if run.stderr_tail.strip() else []
+        if last and "MemoryError" in last[0]:
+            status, reason = "memory", f"ran out of memory (limit {limits.memory_mb} MB)"
+        elif last and status == "crashed":
+            reason += f": {last[0][:200]}"
+        if run.public is not None:
+            # an exit code or a signal is the submission's to choose: while it held hidden
+            # inputs, they could carry them out, so only the kind of ending is told
+            if status == "crashed":
+                reason = "the process ended"
+            reason = f"{reason} while running the hidden cases; graded as far as it ran"
+        return status, reason
+    errors = run.public.get("cell_errors", [])
+    if any(e.get("kind") == "memory" for e in errors if isinstance(e, dict)):
+        return "memory", (f"ran out of memory (limit {limits.memory_mb} MB); graded as far "
+                          f"as it ran")
+    if max(run.stdout_bytes, run.stderr_bytes) >= limits.file_mb * 1024 * 1024:
+        return "output limit", (f"printed more than {limits.file_mb} MB; the rest was dropped; "
+                                f"graded as far as it ran")
+    return "ok", "graded"
+
+
+def _exercises(spec: LabSpec, plan: Plan, run: Run, status: str, reason: str,
+               limit: float) -> dict[str, ExerciseResult]:
+    if run.public is None:
+        return _not_graded(spec, status, reason)
+    public = run.public.get("outcomes", {})
+    hidden = run.hidden.get("outcomes", {}) if run.hidden is not None else None
+    lost = f"not run: {reason}"
+    results = {}
+    for ex in spec.exercises:
+        mine = public.get(ex.id) if isinstance(public, dict) else None
+        if not isinstance(mine, dict):
+            mine = {"missing": "the worker's answer was incomplete"}
+        theirs = hidden.get(ex.id, {}) if isinstance(hidden, dict) else None
+        results[ex.id] = score_exercise(ex, plan[ex.id], mine, theirs, lost, limit)
+    return results
+
+
+def _cell_errors(run: Run) -> list[dict[str, Any]]:
+    errors = run.public.get("cell_errors", []) if run.public else []
+    keep = ("cell", "first_line", "line", "code", "kind", "error")
+    return [{k: e.get(k) for k in keep} for e in errors if isinstance(e, dict)][:100]
 
 
 def grade_notebook(path: Path, spec: LabSpec, student: str | None = None,
                    timeout: float = DEFAULT_TIMEOUT, memory_mb: int = DEFAULT_MEMORY_MB,
-                   secret: str | None = None, hide: Sequence[Path] = ()) -> SubmissionResult:
-    """Grade one notebook; never raises for anything the submission does."""
+                   secret: str | None = None, layer: str | None = None) -> SubmissionResult:
+    """Grade one notebook. Never raises for anything the submission does, nor for anything
+    else that goes wrong with this one notebook (that becomes a ``grader error`` row);
+    :class:`~grader.sandbox.Interrupted` is let through when grading is being stopped.
+
+    ``secret`` seeds the hidden cases; ``None`` grades a practice run (public seed).
+    """
     who = student or student_id(path, spec.name)
     try:
-        cells, digest, named = _read_cells(path)
-        who = student or named or who
+        return _grade(path, spec, who, student is not None, timeout, memory_mb, secret, layer)
+    except Interrupted:
+        raise
+    except Exception as exc:
+        detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+        return SubmissionResult(who, str(path), "grader error",
+                                f"the grader failed on {who}'s notebook: {detail[:300]}",
+                                _not_graded(spec, "not graded", "grader error"),
+                                practice=secret is None)
+
+
+def _grade(path: Path, spec: LabSpec, who: str, named: bool, timeout: float, memory_mb: int,
+           secret: str | None, layer: str | None) -> SubmissionResult:
+    practice = secret is None
+    try:
+        notebook = read_notebook(path)
     except (OSError, ValueError) as exc:
         return SubmissionResult(who, str(path), "malformed notebook", str(exc),
-                                _not_graded(spec, "not graded", "malformed notebook"))
-    plan = {ex.id: _cases(ex, who, secret) for ex in spec.exercises}
-    request = {
-        "cells": cells,
-        # each exercise may lose at most one case to an endless loop: half the budget in all
-        "case_time_limit": min(10.0, timeout / (2 * len(spec.exercises))),
-        "blocked": sorted({name for ex in spec.exercises for name in ex.blocked}),
-        "exercises": [{"id": ex.id, "function": ex.function,
-                       "cases": [{"args": serialize.encode(c.args),
-                                  "kwargs": serialize.encode(c.kwargs)}
-                                 for c, _ in plan[ex.id]]}
-                      for ex in spec.exercises],
-    }
+                                _not_graded(spec, "not graded", "malformed notebook"),
+                                practice=practice)
+    who = who if named else (notebook.student or who)
+    plan = plan_cases(spec, who, secret)
     limits = Limits(memory_mb=memory_mb, cpu_seconds=int(timeout) + 1)
-    env = {k: v for k, v in os.environ.items() if not k.startswith("KIT_COURSE")}
-    env.update(KIT_GRADING="1", KIT_FAST="1", MPLBACKEND="Agg", PYTHONDONTWRITEBYTECODE="1",
-               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
-    with tempfile.TemporaryDirectory(prefix="grade-") as tmp:
-        scratch = Path(tmp)
-        (scratch / "request.json").write_text(json.dumps(request))
-        (scratch / "result.json").write_bytes(b"")
-        stdout_path, stderr_path = scratch / "stdout.txt", scratch / "stderr.txt"
-        box = Sandbox.create(scratch, [path.parent, *hide], limits)
-        env["HOME"] = env["TMPDIR"] = str(box.scratch)
-        with open(stdout_path, "wb") as out, open(stderr_path, "wb") as err, \
-                open(scratch / "request.json", "rb") as request_in:
-            box.prepare()
-            proc = subprocess.Popen(box.command(), cwd=box.scratch, env=env, stdin=request_in,
-                                    stdout=out, stderr=err, start_new_session=True,
-                                    preexec_fn=box.preexec())
-            try:
-                proc.wait(timeout=timeout)
-            except subprocess.TimeoutExpired:
-                _kill(proc)
-                reason = f"did not finish within {timeout:g} s (an endless loop?)"
-                return SubmissionResult(who, str(path), "timeout", reason,
-                                        _not_graded(spec, "timeout", reason), [],
-                                        box.layer, digest)
-            finally:
-                _kill(proc)  # anything the submission left running
-        output_limited = max(stdout_path.stat().st_size,
-                             stderr_path.stat().st_size) >= limits.file_mb * 1024 * 1024
-        err_tail = _tail(stderr_path)
-        result_size = (scratch / "result.json").stat().st_size
-        raw = (scratch / "result.json").read_bytes() if 0 < result_size <= RESULT_LIMIT else b""
-    if proc.returncode != 0 or not raw:
-        status, reason = "crashed", ""
-        code = proc.returncode
-        if box.layer != "rlimits" and 128 < code < 128 + 65:
-            code = -(code - 128)  # the sandbox reports its child's signal as 128 + n
-        if code < 0:
-            name = signal.Signals(-code).name
-            reason = f"the process was killed by {name}"
-            if name == "SIGXCPU":
-                status, reason = "timeout", f"used more than {limits.cpu_seconds} s of CPU"
-        elif proc.returncode != 0:
-            reason = f"the process exited with code {proc.returncode} before reporting"
-        elif result_size > RESULT_LIMIT:
-            status, reason = "output limit", "its results were larger than the grader reads"
-        else:
-            reason = "the process ended without reporting results"
-        last = err_tail.strip().splitlines()[-1:] if err_tail.strip() else []
-        if last and "MemoryError" in last[0]:
-            status, reason = "memory", f"ran out of memory (limit {memory_mb} MB)"
-        elif last:
-            reason += f": {last[0][:200]}"
-        return SubmissionResult(who, str(path), status, reason,
-                                _not_graded(spec, status, reason), [], box.layer, digest)
-    try:
-        answer = json.loads(raw)
-        outcomes, cell_errors = answer["outcomes"], list(answer["cell_errors"])
-        if not isinstance(outcomes, dict):
-            raise TypeError("outcomes is not a mapping")
-    except (ValueError, KeyError, TypeError) as exc:
-        reason = f"the submission's process left an unreadable result ({exc})"
-        return SubmissionResult(who, str(path), "crashed", reason,
-                                _not_graded(spec, "crashed", reason), [], box.layer, digest)
-    exercises = {ex.id: _score(ex, plan[ex.id], outcomes.get(ex.id, {"missing": "no answer"}))
-                 for ex in spec.exercises}
-    status, reason = "ok", "graded"
-    memory_hit = any("MemoryError" in str(e.get("error", "")) for e in cell_errors) or \
-        any(e.status == "memory" for e in exercises.values())
-    if memory_hit:
-        status, reason = "memory", f"ran out of memory (limit {memory_mb} MB); graded as far " \
-                                   f"as it ran"
-    elif output_limited:
-        status, reason = "output limit", (f"printed more than {limits.file_mb} MB; the rest "
-                                          f"was dropped; graded as far as it ran")
-    return SubmissionResult(who, str(path), status, reason, exercises, cell_errors, box.layer,
-                            digest)
-
-
-def _kill(proc: subprocess.Popen[bytes]) -> None:
-    try:
-        os.killpg(proc.pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        pass
-    proc.wait()
+    layer = layer or detect_layer()
+    run, layer = run_submission(spec, notebook, plan, limits, timeout, layer)
+    if stopping():  # its sandbox was killed by the interruption, not by the submission
+        raise Interrupted("grading is being stopped")
+    status, reason = classify(run, layer, limits, timeout)
+    limit = min(10.0, timeout / (2 * max(1, len(spec.exercises))))
+    return SubmissionResult(who, str(path), status, reason,
+                            _exercises(spec, plan, run, status, reason, limit),
+                            _cell_errors(run), layer, notebook.sha256, practice)
 
 
 def grade_submissions(paths: Iterable[Path], spec: LabSpec, jobs: int = 1,
                       timeout: float = DEFAULT_TIMEOUT, memory_mb: int = DEFAULT_MEMORY_MB,
-                      secret: str | None = None) -> list[SubmissionResult]:
+                      secret: str | None = None, layer: str | None = None
+                      ) -> list[SubmissionResult]:
     """Grade many notebooks, ``jobs`` at a time (each in its own sandboxed process)."""
     items = list(paths)
-    hide = sorted({p.parent for p in items})
+    chosen = layer or detect_layer()
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
         return list(pool.map(lambda p: grade_notebook(p, spec, None, timeout, memory_mb,
-                                                      secret, hide), items))
-
-
-# ------------------------------------------------------------------ a class, resumably
-
-def fingerprint(spec: LabSpec, secret: str | None, timeout: float, memory_mb: int) -> str:
-    """What a finished result depends on besides the notebook itself."""
-    module = sys.modules[f"grader.labs.{spec.name}"]
-    source = inspect.getsource(module)
-    key = secret if secret is not None else os.environ.get("KIT_COURSE_SECRET", "kit-default")
-    text = "\0".join([spec.name, source, hashlib.sha256(key.encode()).hexdigest(),
-                      f"{timeout:g}", str(memory_mb)])
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def _load_previous(path: Path, spec: LabSpec, stamp: str) -> dict[str, SubmissionResult]:
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    if data.get("lab") != spec.name or data.get("fingerprint") != stamp:
-        return {}
-    previous = {}
-    for item in data.get("submissions", []):
-        try:
-            result = SubmissionResult.from_dict(item)
-        except (KeyError, TypeError):
-            continue
-        if result.sha256:
-            previous[f"{result.path}\0{result.sha256}"] = result
-    return previous
-
-
-def _digest(path: Path) -> str:
-    try:
-        return hashlib.sha256(path.read_bytes()).hexdigest()
-    except OSError:
-        return ""
-
-
-def grade_class(paths: Sequence[Path], spec: LabSpec, gradebook: Path, results: Path,
-                jobs: int = 1, timeout: float = DEFAULT_TIMEOUT,
-                memory_mb: int = DEFAULT_MEMORY_MB, secret: str | None = None,
-                dask_address: str | None = None,
-                progress: Callable[[SubmissionResult, bool], None] | None = None
-                ) -> list[SubmissionResult]:
-    """Grade ``paths`` into ``gradebook`` (CSV) and ``results`` (JSON), resumably.
-
-    ``progress(result, reused)`` is called as each submission finishes.
-    """
-    stamp = fingerprint(spec, secret, timeout, memory_mb)
-    previous = _load_previous(results, spec, stamp)
-    done: dict[Path, SubmissionResult] = {}
-    todo: list[Path] = []
-    for p in paths:
-        old = previous.get(f"{p}\0{_digest(p)}")
-        if old is not None:
-            done[p] = old
-            if progress:
-                progress(old, True)
-        else:
-            todo.append(p)
-    lock = threading.Lock()
-    hide = sorted({p.parent for p in paths})
-
-    def finished(p: Path, result: SubmissionResult) -> None:
-        with lock:
-            done[p] = result
-            ordered = [done[q] for q in paths if q in done]
-            # the results first: they are what a re-run resumes from, never behind the CSV
-            write_results(results, ordered, spec, stamp)
-            write_gradebook(gradebook, ordered, spec)
-            if progress:
-                progress(result, False)
-
-    if dask_address:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
-
-        with Client(dask_address) as client:
-            futures = {client.submit(_grade_remote, str(p), spec.name, timeout, memory_mb,
-                                     secret, [str(h) for h in hide], pure=False): p
-                       for p in todo}
-            for future in dask_completed(futures):
-                finished(futures[future], SubmissionResult.from_dict(future.result()))
-    else:
-        with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-            pending = {pool.submit(grade_notebook, p, spec, None, timeout, memory_mb, secret,
-                                   hide): p for p in todo}
-            for future in as_completed(pending):
-                finished(pending[future], future.result())
-    ordered = [done[p] for p in paths]
-    write_gradebook(gradebook, ordered, spec)
-    write_results(results, ordered, spec, stamp)
-    return ordered
-
-
-def _grade_remote(path: str, lab: str, timeout: float, memory_mb: int, secret: str | None,
-                  hide: list[str]) -> dict[str, Any]:
-    """One submission on a Dask worker (plain data in and out)."""
-    result = grade_notebook(Path(path), load_lab(lab), None, timeout, memory_mb, secret,
-                            [Path(h) for h in hide])
-    return result.to_dict()
-
-
-# ------------------------------------------------------------------ writing
-
-def gradebook_rows(results: Sequence[SubmissionResult], spec: LabSpec) -> list[dict[str, Any]]:
-    rows = []
-    for r in results:
-        row: dict[str, Any] = {"student": r.student}
-        for ex in spec.exercises:
-            row[ex.id] = f"{r.exercises[ex.id].points:g}" if ex.id in r.exercises else "0"
-        row["total"] = f"{r.total:g}"
-        row["max"] = f"{spec.max_points:g}"
-        row["percent"] = f"{100.0 * r.total / spec.max_points:.1f}" if spec.max_points else "0"
-        row["status"] = r.status
-        row["reason"] = r.reason
-        rows.append(row)
-    return rows
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def write_gradebook(path: Path, results: Sequence[SubmissionResult], spec: LabSpec) -> None:
-    """The CSV gradebook, written atomically (a reader never sees half a file)."""
-    rows = gradebook_rows(results, spec)
-    columns = ["student", *[ex.id for ex in spec.exercises], "total", "max", "percent",
-               "status", "reason"]
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=columns)
-    writer.writeheader()
-    writer.writerows(rows)
-    _atomic_write(path, buffer.getvalue())
-
-
-def write_results(path: Path, results: Sequence[SubmissionResult], spec: LabSpec,
-                  stamp: str = "") -> None:
-    """Per-exercise and per-case outcomes and reasons, as JSON (atomically)."""
-    data = {
-        "lab": spec.name,
-        "max": spec.max_points,
-        "fingerprint": stamp,
-        "sandbox": detect_layer(),
-        "tolerances": {ex.id: {"rtol": ex.rtol, "atol": ex.atol} for ex in spec.exercises},
-        "submissions": [r.to_dict() for r in results],
-    }
-    _atomic_write(path, json.dumps(data, indent=1, ensure_ascii=False))
+                                                      secret, chosen), items))

@@ -11,13 +11,20 @@ labs: an exercise cell is a solution cell (``grade_id`` = the exercise id), a ``
 cell is an autograded test cell with the exercise's points (under nbgrader's autograder,
 ``check`` raises when a case fails, which is how nbgrader scores), every other cell is
 locked.
+
+Release checks itself against the lab's spec (``grader/labs/labNN.py``) before writing
+anything: a solution cell whose function no exercise names, an exercise with no solution cell,
+a ``check(...)`` of no exercise, or a notebook with solution cells and no spec at all is a
+:class:`ReleaseError` naming the cell and the spec entry.
 """
 
 from __future__ import annotations
 
 import copy
 import re
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import nbformat
 
@@ -84,16 +91,18 @@ def nbgrader_metadata(cell: nbformat.NotebookNode, index: int,
 
 
 def release_notebook(nb: nbformat.NotebookNode, name: str = "notebook",
-                     lab: str | None = None) -> nbformat.NotebookNode:
+                     lab: str | None = None, spec: Any | None = None) -> nbformat.NotebookNode:
     """The student version of one solution notebook (a new object)."""
     student = copy.deepcopy(nb)
     points: dict[str, float] = {}
     if lab is not None:
-        from grader.spec import load_lab
+        if spec is None:
+            from grader.spec import load_lab
 
-        points = {ex.function: ex.points for ex in load_lab(lab).exercises}
+            spec = load_lab(lab)
+        points = {ex.function: ex.points for ex in spec.exercises}
     for index, cell in enumerate(student.cells):
-        where = f"{name}, cell {index}"
+        where = f"{name}, cell {index + 1}"
         if lab is not None:
             cell.metadata["nbgrader"] = nbgrader_metadata(cell, index, points, lab)
         if cell.cell_type == "code":
@@ -116,32 +125,97 @@ def _lab_notebooks(folder: Path) -> list[Path]:
     return sorted(p for p in folder.glob("[0-9][0-9]-*.ipynb"))
 
 
-def release(solutions: Path, labs: Path) -> list[Path]:
-    """Write the student version of every ``NN-*.ipynb`` of ``solutions`` into ``labs``."""
+def _first_line(source: str) -> str:
+    line = next((ln.strip() for ln in source.splitlines() if ln.strip()), "")
+    return line if len(line) <= 60 else line[:59] + "…"
+
+
+def spec_problems(nb: nbformat.NotebookNode, name: str, lab: str, spec: Any | None) -> list[str]:
+    """Where notebook ``name`` and the spec of ``lab`` disagree (empty: they match)."""
+    where = f"grader/labs/{lab}.py"
+    cells = [(i, c) for i, c in enumerate(nb.cells, start=1) if c.cell_type == "code"]
+    solution_cells = [(i, c) for i, c in cells if BEGIN in c.source]
+    if spec is None:
+        return [f"{name} has {len(solution_cells)} solution cells but {where} does not exist: "
+                f"add the lab's spec"] if solution_cells else []
+    functions = {ex.function: ex for ex in spec.exercises}
+    problems, defined = [], set()
+    for i, cell in solution_cells:
+        found = DEFINES.findall(cell.source)
+        function = found[0] if found else None
+        defined.add(function)
+        if function not in functions:
+            problems.append(f"{name} cell {i} (`{_first_line(cell.source)}`) is a solution cell, "
+                            f"but {where} has no exercise whose function is {function!r}")
+    for ex in spec.exercises:
+        if ex.function not in defined:
+            problems.append(f"{where}: exercise {ex.id} (function {ex.function!r}) has no "
+                            f"solution cell in {name}")
+    for i, cell in cells:
+        for match in CHECK_CELL.finditer(cell.source):
+            exercise = match.group(2) or match.group(1)
+            if exercise not in functions:
+                problems.append(f"{name} cell {i} (`{_first_line(cell.source)}`) checks "
+                                f"{exercise!r}, which is no exercise of {where}")
+    return problems
+
+
+def _specs(specs: Mapping[str, Any] | None) -> Mapping[str, Any]:
+    if specs is not None:
+        return specs
+    from grader.spec import lab_names, load_lab
+
+    return {lab: load_lab(lab) for lab in lab_names()}
+
+
+def _checked(src: Path, specs: Mapping[str, Any]) -> tuple[nbformat.NotebookNode, str]:
+    nb = nbformat.read(src, as_version=4)
+    lab = f"lab{src.name[:2]}"
+    problems = spec_problems(nb, str(src), lab, specs.get(lab))
+    if problems:
+        raise ReleaseError("\n".join(problems))
+    return nb, lab
+
+
+def release(solutions: Path, labs: Path, specs: Mapping[str, Any] | None = None) -> list[Path]:
+    """Write the student version of every ``NN-*.ipynb`` of ``solutions`` into ``labs``,
+    after checking every notebook against its spec (``specs``: lab name → spec, for tests;
+    by default the specs in ``grader/labs/``)."""
     sources = _lab_notebooks(solutions)
     if not sources:
         raise ReleaseError(f"{solutions}: no lab notebooks (NN-name.ipynb) to release")
+    known = _specs(specs)
+    checked = [(src, *_checked(src, known)) for src in sources]  # all checked, then written
     labs.mkdir(parents=True, exist_ok=True)
     written = []
-    for src in sources:
-        nb = nbformat.read(src, as_version=4)
+    for src, nb, lab in checked:
         out = labs / src.name
-        nbformat.write(release_notebook(nb, src.name, _lab_of(src)), out)
+        nbformat.write(release_notebook(nb, src.name, lab if lab in known else None,
+                                        known.get(lab)), out)
         written.append(out)
     return written
 
 
-def check_release(solutions: Path, labs: Path) -> list[str]:
-    """What differs between ``labs`` and a fresh release of ``solutions`` (empty: up to date)."""
+def check_release(solutions: Path, labs: Path, specs: Mapping[str, Any] | None = None
+                  ) -> list[str]:
+    """What differs between ``labs`` and a fresh release of ``solutions``, and where a solution
+    notebook and its spec disagree (empty: up to date)."""
     problems = []
+    known = _specs(specs)
     expected_names = {p.name for p in _lab_notebooks(solutions)}
     for src in _lab_notebooks(solutions):
+        nb = nbformat.read(src, as_version=4)
+        lab = f"lab{src.name[:2]}"
+        mismatch = spec_problems(nb, str(src), lab, known.get(lab))
+        problems += mismatch
         target = labs / src.name
+        if mismatch:
+            continue
         if not target.exists():
             problems.append(f"{target} is missing: run `grader release`")
             continue
-        fresh = nbformat.writes(release_notebook(nbformat.read(src, as_version=4), src.name,
-                                                 _lab_of(src)))
+        fresh = nbformat.writes(release_notebook(nb, src.name, lab if lab in known else None,
+                                                 known.get(lab)))
         if fresh != nbformat.writes(nbformat.read(target, as_version=4)):
             problems.append(f"{target} is out of date with {src}: run `grader release`")
     for extra in _lab_notebooks(labs):

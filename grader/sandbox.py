@@ -3,34 +3,76 @@
 Layers, strongest first (the grader reports which one ran):
 
 ``bwrap``
-    bubblewrap: a read-only view of the whole file system but for the submission's scratch
-    directory, the submissions and the gradebook's folder hidden behind empty directories,
-    no network, its own PID namespace (every process it starts dies with it).
+    bubblewrap, started as root: new mount, PID, network, IPC and UTS namespaces whose file
+    system is built from an allow-list (:func:`mount_plan`), then ``setpriv`` drops to a user id
+    of the submission's own, without capabilities.
 ``unshare``
-    as root without bubblewrap: ``unshare --pid --fork --net`` and the submission dropped to
-    the unprivileged user ``nobody``, which can write nothing but its scratch directory.
+    as root without bubblewrap: ``unshare`` makes the same namespaces and :mod:`grader.jail`
+    builds the same file system with ``mount(2)`` before dropping to the submission's user.
 ``rlimits``
-    neither: resource limits and killing the process group only.
+    neither: resource limits and killing the process group only. It cannot keep a submission
+    away from the grader's files, so ``grader grade`` refuses it unless told otherwise.
 
-All layers add the same resource limits (address space, CPU time, file size, no core dumps)
-and a wall-clock timeout enforced by the grader.
+The allow-list of both isolating layers: the system's programs and libraries (``/usr`` and
+its ``/lib``, ``/bin`` links), a few files of ``/etc``, the Python installation, the kit's
+packages — with the graded references' modules replaced by stubs that raise — and the
+submission's own copy of its notebook in a private home directory. ``/tmp``, ``/dev/shm`` and
+the home directory are private tmpfs mounts of bounded size that vanish with the sandbox;
+nothing of the submission is ever written on the grading machine's disks.
+
+Every sandbox runs as a user id of its own (drawn at random from a range no account uses), so
+its process-count limit counts its own processes only, and binds even when grading as root.
+All layers add the same resource limits (address space, CPU time, file size, processes, no
+core dumps), a wall-clock timeout enforced by the grader, and die with the grader: each
+sandbox gets the parent-death signal, and :func:`kill_all` ends every live one.
 """
 
 from __future__ import annotations
 
+import base64
+import ctypes
 import functools
+import importlib.util
+import json
 import os
 import resource
+import secrets
 import shutil
+import signal
 import subprocess
 import sys
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+import tempfile
+import threading
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import IO, Any
 
-__all__ = ["Limits", "Sandbox", "detect_layer", "layer_works"]
+__all__ = ["HOME", "ISOLATING", "LAYERS", "Interrupted", "Limits", "Mount", "Sandbox",
+           "SandboxUnavailable", "detect_layer", "kill_all", "layer_works", "mount_plan",
+           "resume", "stop", "stopping"]
 
-NOBODY = 65534
+LAYERS = ("bwrap", "unshare", "rlimits")
+ISOLATING = ("bwrap", "unshare")
+HOME = "/home/student"
+"""the submission's home and working directory inside an isolating sandbox."""
+MPL_DIR = "/tmp/matplotlib"
+"""matplotlib's configuration and cache folder inside an isolating sandbox."""
+PACKAGES = ("kit", "grader", "sim", "hardware")
+UID_RANGE = (1_500_000_000, 1_900_000_000)
+"""user ids of sandboxes: far above any account's."""
+ETC_FILES = ("ld.so.cache", "ld.so.conf", "ld.so.conf.d", "nsswitch.conf", "hosts",
+             "mime.types", "alternatives", "localtime")
+SYSTEM_LINKS = ("bin", "sbin", "lib", "lib32", "lib64", "libx32")
+PR_SET_PDEATHSIG = 1
+
+
+class SandboxUnavailable(RuntimeError):
+    """The requested layer cannot run on this machine."""
+
+
+class Interrupted(RuntimeError):
+    """Grading was stopped (SIGINT/SIGTERM): no new sandbox starts."""
 
 
 @dataclass(frozen=True)
@@ -39,111 +81,414 @@ class Limits:
     cpu_seconds: int = 121
     file_mb: int = 64
     """largest file the submission may write, its captured output included."""
+    processes: int = 64
+    """processes and threads of the submission's user at once."""
+    scratch_mb: int = 256
+    """size of each private tmpfs (home, /tmp, /dev/shm)."""
 
 
-PROBE = [sys.executable, "-c", "import grader.worker"]
+@dataclass(frozen=True)
+class Mount:
+    """One step of building the sandbox's file system, in order.
+
+    ``kind`` is ``bind`` (read-only bind of host path ``source``), ``tmpfs`` (private, of
+    ``size`` bytes and permission bits ``mode``), ``data`` (a read-only file holding ``data``),
+    ``file`` (a writable copy of ``data``, or of the bytes ``blob``, in a tmpfs), ``dir`` (an
+    empty directory), ``symlink`` (to ``source``), ``dev`` or ``proc``.
+    """
+
+    kind: str
+    dest: str
+    source: str = ""
+    data: str = ""
+    size: int = 0
+    mode: int = 0o755
+    blob: bytes = b""
+
+
+# ------------------------------------------------------------------ the allow-list
+
+def _real(path: str | Path) -> str:
+    return str(Path(path).resolve())
+
+
+def _package_dirs() -> list[str]:
+    """Where the kit's packages are installed (a folder holding ``__init__.py`` each)."""
+    dirs: list[str] = []
+    for name in PACKAGES:
+        spec = importlib.util.find_spec(name)
+        origin = spec.origin if spec is not None else None
+        if origin and origin.endswith("__init__.py"):
+            dirs.append(_real(Path(origin).parent))
+    return dirs
+
+
+def _python_dirs() -> list[str]:
+    prefixes = {_real(p) for p in (sys.prefix, sys.base_prefix, sys.exec_prefix,
+                                   sys.base_exec_prefix)}
+    prefixes.add(_real(Path(sys.executable).resolve().parent.parent))
+    return sorted(prefixes)
+
+
+def _covered(path: str, roots: Sequence[str]) -> bool:
+    return any(path == r or path.startswith(r.rstrip("/") + "/") for r in roots)
+
+
+def _system_mounts() -> list[Mount]:
+    mounts = [Mount("bind", "/usr", "/usr")]
+    for name in SYSTEM_LINKS:
+        path = Path("/") / name
+        if path.is_symlink():
+            mounts.append(Mount("symlink", str(path), os.readlink(path)))
+        elif path.is_dir():
+            mounts.append(Mount("bind", str(path), str(path)))
+    for name in ETC_FILES:
+        path = Path("/etc") / name
+        if path.exists():
+            # a symlink (localtime → zoneinfo) is bound as the file it names
+            mounts.append(Mount("bind", str(path), _real(path)))
+    return mounts
+
+
+def _etc_passwd(uid: int) -> list[Mount]:
+    passwd = (f"root:x:0:0:root:/root:/usr/sbin/nologin\n"
+              f"nobody:x:65534:65534:nobody:/nonexistent:/usr/sbin/nologin\n"
+              f"student:x:{uid}:{uid}:student:{HOME}:/usr/sbin/nologin\n")
+    group = f"root:x:0:\nnogroup:x:65534:\nstudent:x:{uid}:\n"
+    return [Mount("data", "/etc/passwd", data=passwd), Mount("data", "/etc/group", data=group)]
+
+
+def _font_cache() -> Path | None:
+    """The grading user's matplotlib font list, if matplotlib built one (found without
+    importing matplotlib)."""
+    folder = os.environ.get("MPLCONFIGDIR") or str(
+        Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "matplotlib")
+    found = sorted(Path(folder).glob("fontlist-v*.json")) if Path(folder).is_dir() else []
+    return found[-1] if found else None
+
+
+def mount_plan(uid: int, limits: Limits, files: Mapping[str, str] | None = None,
+               stubs: Mapping[str, str] | None = None) -> list[Mount]:
+    """The sandbox's file system, in the order it is built.
+
+    ``files`` are written into the home directory (name → text: the notebook's copy);
+    ``stubs`` replace host files (path → text: the graded references' modules). Compiled
+    copies of the replaced modules are hidden too.
+    """
+    size = limits.scratch_mb * 1024 * 1024
+    plan = _system_mounts() + _etc_passwd(uid)
+    plan += [Mount("dev", "/dev"), Mount("proc", "/proc"),
+             Mount("tmpfs", "/tmp", size=size, mode=0o1777),
+             Mount("tmpfs", "/dev/shm", size=size, mode=0o1777),
+             Mount("tmpfs", HOME, size=size, mode=0o777)]
+    roots = ["/usr"]
+    for path in [*_python_dirs(), *_package_dirs()]:
+        if not _covered(path, roots):
+            plan.append(Mount("bind", path, path))
+            roots.append(path)
+    for name, text in (files or {}).items():
+        plan.append(Mount("file", f"{HOME}/{name}", data=text, mode=0o644))
+    plan.append(Mount("dir", MPL_DIR, mode=0o777))
+    font_cache = _font_cache()
+    if font_cache is not None:  # else matplotlib rebuilds it in every sandbox (≈ 0.5 s)
+        plan.append(Mount("file", f"{MPL_DIR}/{font_cache.name}",
+                          data=font_cache.read_text(encoding="utf-8"), mode=0o644))
+    plan += _numba_caches(roots[1:], size)
+    for path, text in (stubs or {}).items():
+        plan.append(Mount("data", path, data=text, mode=0o444))
+        cache = Path(path).parent / "__pycache__"
+        for compiled in sorted(cache.glob(f"{Path(path).stem}.*.pyc")) if cache.is_dir() else []:
+            plan.append(Mount("data", str(compiled), data="", mode=0o444))
+    return _with_parents(plan)
+
+
+def _numba_caches(roots: Sequence[str], size: int) -> list[Mount]:
+    """numba reads its compiled functions from beside their source only where it could also
+    write: each ``__pycache__`` of the kit's packages holding numba's index becomes a private
+    tmpfs with copies of its files, so the simulated lidar is not compiled again in every
+    sandbox (≈ 4 s)."""
+    mounts = []
+    for root in roots:
+        if Path(root).name not in PACKAGES:
+            continue
+        for cache in sorted(Path(root).rglob("__pycache__")):
+            if not any(cache.glob("*.nbi")):
+                continue
+            mounts.append(Mount("tmpfs", str(cache), size=size, mode=0o777))
+            mounts += [Mount("file", str(f), blob=f.read_bytes(), mode=0o644)
+                       for f in sorted(cache.iterdir()) if f.is_file()]
+    return mounts
+
+
+def _with_parents(plan: list[Mount]) -> list[Mount]:
+    """Each mount preceded by the directories above it that nothing mounted yet made, as
+    ``dir`` steps of mode 0755 (bubblewrap would make them 0700, unreadable to the
+    submission's user)."""
+    made = {"/"}
+    bound: list[str] = []
+    out = []
+    for m in plan:
+        for parent in reversed(Path(m.dest).parents):
+            if str(parent) not in made and not _covered(str(parent), bound):
+                out.append(Mount("dir", str(parent)))
+                made.add(str(parent))
+        out.append(m)
+        made.add(m.dest)
+        if m.kind == "bind":  # what lies below a bound folder is the host's, already there
+            bound.append(m.dest)
+    return out
+
+
+# ------------------------------------------------------------------ which layer
+
+NEEDS = {"bwrap": ("bwrap", "setpriv"), "unshare": ("unshare",)}
 
 
 @functools.cache
 def layer_works(layer: str) -> bool:
     """Whether ``layer`` can start the worker's Python here (bubblewrap may be missing or
-    refused; the user ``nobody`` may be unable to read the kit's installation)."""
+    refused, the namespaces may need root, the kit may be unreadable to other users)."""
     if layer == "rlimits":
         return True
-    if layer == "bwrap":
-        if not shutil.which("bwrap"):
-            return False
-        command = ["bwrap", "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc",
-                   "--unshare-all", "--die-with-parent", *PROBE]
-    elif layer == "unshare":
-        if os.geteuid() != 0 or not (shutil.which("unshare") and shutil.which("setpriv")):
-            return False
-        command = ["unshare", "--pid", "--fork", "--net", "setpriv", "--reuid", str(NOBODY),
-                   "--regid", str(NOBODY), "--clear-groups", *PROBE]
-    else:
+    needed = NEEDS.get(layer)
+    if needed is None or os.geteuid() != 0 or not all(shutil.which(n) for n in needed):
+        return False
+    box = Sandbox.create(layer, Limits(), {})
+    try:
+        proc = box.start([sys.executable, "-I", "-B", "-c", "import grader.worker"],
+                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL)
+    except (OSError, subprocess.SubprocessError, Interrupted):
         return False
     try:
-        return subprocess.run(command, capture_output=True, timeout=60).returncode == 0
-    except (OSError, subprocess.SubprocessError):
+        return proc.wait(timeout=60) == 0
+    except subprocess.TimeoutExpired:
         return False
+    finally:
+        box.finish(proc)
 
 
-@functools.lru_cache(maxsize=1)
-def detect_layer() -> str:
-    """``"bwrap"``, ``"unshare"`` or ``"rlimits"``: the strongest that works here
-    (``KIT_SANDBOX`` forces one)."""
-    forced = os.environ.get("KIT_SANDBOX")
-    if forced in ("bwrap", "unshare", "rlimits"):
-        return forced
-    return next(layer for layer in ("bwrap", "unshare", "rlimits") if layer_works(layer))
+def detect_layer(forced: str | None = None) -> str:
+    """``"bwrap"``, ``"unshare"`` or ``"rlimits"``: the strongest that works here.
+
+    ``forced`` (or the environment variable ``KIT_SANDBOX``) asks for one layer; a layer that
+    cannot run here raises :class:`SandboxUnavailable` rather than quietly running a weaker one.
+    """
+    wanted = forced or os.environ.get("KIT_SANDBOX") or None
+    if wanted:
+        if wanted not in LAYERS:
+            raise SandboxUnavailable(f"KIT_SANDBOX={wanted!r}: the layers are "
+                                     f"{', '.join(LAYERS)}")
+        if not layer_works(wanted):
+            tools = " and ".join(NEEDS.get(wanted, ()))
+            raise SandboxUnavailable(f"the {wanted} sandbox layer cannot run on this machine: "
+                                     f"it needs root, {tools}, and a kit installation other "
+                                     f"users can read")
+        return wanted
+    return next(layer for layer in LAYERS if layer_works(layer))
 
 
-def _package_roots() -> list[Path]:
-    """Folders the worker must be able to read: where kit, grader and sim are installed,
-    and the Python installation itself."""
-    import grader
-    import kit
-    import sim
+# ------------------------------------------------------------------ live sandboxes
 
-    roots = [Path(m.__file__).resolve().parent.parent for m in (kit, grader, sim)
-             if m.__file__]
-    return [*roots, Path(sys.prefix).resolve(), Path(sys.base_prefix).resolve()]
+_LIVE: set[subprocess.Popen[bytes]] = set()
+_LIVE_LOCK = threading.Lock()
+_STOPPING = threading.Event()
 
 
-@dataclass(frozen=True)
+def _kill_group(proc: subprocess.Popen[bytes]) -> None:
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def kill_all() -> int:
+    """Kill every live sandbox (and, with it, every process inside); returns how many."""
+    with _LIVE_LOCK:
+        live = list(_LIVE)
+    for proc in live:
+        _kill_group(proc)
+    return len(live)
+
+
+def stop() -> None:
+    """Refuse new sandboxes and kill the live ones (an interrupted grading run)."""
+    _STOPPING.set()
+    kill_all()
+
+
+def stopping() -> bool:
+    """Whether :func:`stop` was called (and :func:`resume` not yet)."""
+    return _STOPPING.is_set()
+
+
+def resume() -> None:
+    """Allow sandboxes again after :func:`stop` (a new grading run in the same process)."""
+    _STOPPING.clear()
+
+
+_PRCTL = ctypes.CDLL(None, use_errno=True).prctl
+"""resolved here, not in a freshly forked child."""
+
+
+def _parent_death_signal() -> None:
+    """In the child before exec: die when the grader's thread that started it dies."""
+    _PRCTL(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+
+
+# ------------------------------------------------------------------ one sandbox
+
+@functools.cache
+def _remove_stale_scratch() -> None:
+    """The rlimits layer's scratch folders left by graders that were killed (SIGKILL leaves
+    no chance to clean up): removed by the next grader, once per process."""
+    for folder in Path(tempfile.gettempdir()).glob("kit-grade-*-*"):
+        pid = folder.name.split("-")[2]
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+        except PermissionError:
+            pass  # alive, another user's
+
+
+@dataclass
 class Sandbox:
-    """How to start ``python -m grader.worker`` for one submission."""
+    """How to start one command inside a layer, with a file system built from ``plan``."""
 
-    scratch: Path
-    hide: tuple[Path, ...]
-    limits: Limits
     layer: str
+    limits: Limits
+    plan: list[Mount]
+    env: dict[str, str]
+    uid: int = 0
+    scratch: Path | None = None
+    """the rlimits layer's working directory (a host folder)."""
+    _fds: list[int] = field(default_factory=list)
 
     @classmethod
-    def create(cls, scratch: Path, hide: Sequence[Path], limits: Limits) -> Sandbox:
-        roots = _package_roots()
-        safe = []
-        for folder in {p.resolve() for p in hide if p.exists()}:
-            # never hide a folder the kit itself is loaded from (grading `labs/` is fine,
-            # grading `.` of an editable checkout would hide the kit)
-            if not any(root == folder or folder in root.parents for root in roots):
-                safe.append(folder)
-        return cls(scratch.resolve(), tuple(sorted(safe)), limits, detect_layer())
+    def create(cls, layer: str, limits: Limits, env: Mapping[str, str],
+               files: Mapping[str, str] | None = None,
+               stubs: Mapping[str, str] | None = None) -> Sandbox:
+        uid = UID_RANGE[0] + secrets.randbelow(UID_RANGE[1] - UID_RANGE[0])
+        plan = mount_plan(uid, limits, files, stubs) if layer in ISOLATING else []
+        box = cls(layer, limits, plan, {"PATH": "/usr/bin:/bin", **env}, uid)
+        if layer == "rlimits":
+            _remove_stale_scratch()
+            box.scratch = Path(tempfile.mkdtemp(prefix=f"kit-grade-{os.getpid()}-"))
+            for name, text in (files or {}).items():
+                (box.scratch / name).write_text(text, encoding="utf-8")
+        box.env.update(HOME=box.home, TMPDIR=str(box.scratch) if box.scratch else "/tmp")
+        return box
 
-    def command(self) -> list[str]:
-        worker = [sys.executable, "-m", "grader.worker"]
+    @property
+    def home(self) -> str:
+        return str(self.scratch) if self.scratch is not None else HOME
+
+    def _memfd(self, content: str | bytes) -> int:
+        fd = os.memfd_create("kit-sandbox")
+        data = content.encode("utf-8") if isinstance(content, str) else content
+        while data:
+            data = data[os.write(fd, data):]
+        os.lseek(fd, 0, os.SEEK_SET)
+        self._fds.append(fd)
+        return fd
+
+    def _bwrap_args(self) -> list[str]:
+        args = ["bwrap", "--unshare-ipc", "--unshare-pid", "--unshare-net", "--unshare-uts",
+                "--unshare-cgroup-try", "--die-with-parent", "--new-session", "--clearenv"]
+        for m in self.plan:
+            if m.kind == "bind":
+                args += ["--ro-bind", m.source, m.dest]
+            elif m.kind == "symlink":
+                args += ["--symlink", m.source, m.dest]
+            elif m.kind == "tmpfs":
+                args += ["--perms", f"{m.mode:o}", "--size", str(m.size), "--tmpfs", m.dest]
+            elif m.kind == "data":
+                args += ["--perms", f"{m.mode:o}", "--ro-bind-data", str(self._memfd(m.data)),
+                         m.dest]
+            elif m.kind == "file":
+                content = m.blob or m.data
+                args += ["--perms", f"{m.mode:o}", "--file", str(self._memfd(content)), m.dest]
+            elif m.kind == "dir":
+                args += ["--perms", f"{m.mode:o}", "--dir", m.dest]
+            elif m.kind in ("dev", "proc"):
+                args += [f"--{m.kind}", m.dest]
+        args += ["--remount-ro", "/", "--chdir", HOME]
+        for key, value in self.env.items():
+            args += ["--setenv", key, value]
+        return [*args, "setpriv", "--reuid", str(self.uid), "--regid", str(self.uid),
+                "--clear-groups", "--no-new-privs", "--inh-caps=-all", "--bounding-set=-all"]
+
+    def _unshare_args(self) -> list[str]:
+        plan = {"uid": self.uid, "home": HOME, "env": self.env,
+                "mounts": [{**asdict(m), "blob": base64.b64encode(m.blob).decode()}
+                           for m in self.plan]}
+        fd = self._memfd(json.dumps(plan))
+        jail = Path(__file__).with_name("jail.py")
+        return ["unshare", "--mount", "--pid", "--fork", "--net", "--ipc", "--uts",
+                "--kill-child", "--propagation", "private", sys.executable, "-I", "-S", "-B",
+                str(jail), str(fd), "--"]
+
+    def command(self, argv: Sequence[str]) -> list[str]:
+        """The full command line that runs ``argv`` in this sandbox."""
         if self.layer == "bwrap":
-            # no tmpfs over /tmp: the kit itself may live there (a CI checkout); temporary
-            # files go to the scratch directory instead
-            args = ["bwrap", "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc",
-                    "--bind", str(self.scratch), str(self.scratch),
-                    "--setenv", "TMPDIR", str(self.scratch)]
-            for folder in self.hide:
-                args += ["--tmpfs", str(folder), "--remount-ro", str(folder)]
-            args += ["--chdir", str(self.scratch), "--unshare-all", "--die-with-parent",
-                     "--new-session", "--setenv", "HOME", str(self.scratch)]
-            return [*args, *worker]
+            return [*self._bwrap_args(), *argv]
         if self.layer == "unshare":
-            # root makes the namespaces, then setpriv drops to nobody for the submission
-            return ["unshare", "--pid", "--fork", "--net", "--kill-child", "setpriv",
-                    "--reuid", str(NOBODY), "--regid", str(NOBODY), "--clear-groups",
-                    *worker]
-        return worker
-
-    def prepare(self) -> None:
-        """Give the scratch directory to the user the submission runs as."""
-        if self.layer == "unshare":
-            for path in (self.scratch, *self.scratch.iterdir()):
-                os.chown(path, NOBODY, NOBODY)
+            return [*self._unshare_args(), *argv]
+        return list(argv)
 
     def preexec(self) -> Callable[[], None]:
         limits = self.limits
+        rlimits_layer = self.layer == "rlimits"
 
         def apply() -> None:
+            _parent_death_signal()
             memory = limits.memory_mb * 1024 * 1024
             resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
             resource.setrlimit(resource.RLIMIT_CPU, (limits.cpu_seconds, limits.cpu_seconds + 5))
             size = limits.file_mb * 1024 * 1024
             resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
             resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+            if not rlimits_layer:  # binds the sandbox's own user id (never root's)
+                resource.setrlimit(resource.RLIMIT_NPROC, (limits.processes, limits.processes))
         return apply
+
+    def start(self, argv: Sequence[str], stdin: Any, stdout: Any, stderr: Any,
+              pass_fds: Sequence[int] = ()) -> subprocess.Popen[bytes]:
+        """Start ``argv`` in the sandbox as its own process group, registered for
+        :func:`kill_all`. Raises :class:`Interrupted` once grading is being stopped."""
+        if _STOPPING.is_set():
+            raise Interrupted("grading is being stopped")
+        command = self.command(argv)
+        env = self.env if self.layer == "rlimits" else {
+            "PATH": "/usr/bin:/bin", "KIT_GRADER_PID": self.env.get("KIT_GRADER_PID", "")}
+        try:
+            proc = subprocess.Popen(command, stdin=stdin, stdout=stdout, stderr=stderr,
+                                    cwd=self.home if self.scratch else "/", env=env,
+                                    pass_fds=(*pass_fds, *self._fds), start_new_session=True,
+                                    preexec_fn=self.preexec())
+        finally:
+            for fd in self._fds:
+                os.close(fd)
+            self._fds.clear()
+        with _LIVE_LOCK:
+            _LIVE.add(proc)
+        if _STOPPING.is_set():  # stopped while starting: do not let it run
+            _kill_group(proc)
+        return proc
+
+    def finish(self, proc: subprocess.Popen[bytes]) -> None:
+        """Kill whatever is left of the sandbox and forget it; remove the rlimits scratch."""
+        _kill_group(proc)
+        proc.wait()
+        with _LIVE_LOCK:
+            _LIVE.discard(proc)
+        if self.scratch is not None:
+            shutil.rmtree(self.scratch, ignore_errors=True)
+
+
+def unlinked_file() -> IO[bytes]:
+    """A temporary file with no name on disk (it vanishes with the grader, however it ends)."""
+    return tempfile.TemporaryFile()

@@ -1,11 +1,17 @@
 """Exercise specifications: what a student writes, what it is compared with, how it scores.
 
-A lab's exercises live in ``grader/labs/labNN.py`` as a module-level ``EXERCISES`` tuple of
-:class:`Exercise`. Each names the function the student defines in the notebook, the ``kit``
-reference that computes the expected output, public cases (shown in the notebook's check
-cell) and a generator of hidden cases (seeded, used only when grading), tolerances, points,
-and diagnostics: functions that reproduce a typical mistake, so a wrong answer that equals
-a known mistake's output gets that mistake's hint.
+A lab's exercises live in ``grader/labs/labNN.py`` as a module-level ``SPEC`` (a
+:class:`LabSpec`); the labs are discovered from those file names, so adding a lab is adding
+its spec file and its solution notebook ``solutions/NN-name.ipynb``. Each :class:`Exercise`
+names the function the student defines in the notebook, the ``kit`` reference that computes
+the expected output, public cases (shown in the notebook's check cell) and a generator of
+hidden cases (seeded, used only when grading), tolerances, points, the references a student
+must not call, and diagnostics: functions that reproduce a typical mistake, so a wrong answer
+that equals a known mistake's output gets that mistake's hint.
+
+The hidden cases are seeded from the course secret, which :func:`read_secret` reads — the one
+place that does: ``--secret-file`` or the environment variable ``KIT_COURSE_SECRET``. Without
+one, grading is practice (:data:`PRACTICE_SECRET`, public) and says so.
 """
 
 from __future__ import annotations
@@ -13,15 +19,22 @@ from __future__ import annotations
 import hashlib
 import importlib
 import os
-from collections.abc import Callable, Sequence
+import pkgutil
+import re
+import sys
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Case", "Diagnostic", "Exercise", "LabSpec", "course_seed", "lab_names", "load_lab"]
+__all__ = ["PRACTICE_SECRET", "Case", "Diagnostic", "Exercise", "LabSpec", "SecretError",
+           "course_seed", "lab_names", "load_lab", "normalise_lab", "read_secret"]
 
-LABS = ("lab01", "lab02", "lab03", "lab04", "lab05")
+PRACTICE_SECRET = "kit-practice"
+"""the public seed of practice grading (no course secret): anyone can regenerate its cases."""
+SECRET_VARIABLE = "KIT_COURSE_SECRET"
 
 
 @dataclass(frozen=True)
@@ -81,9 +94,24 @@ class LabSpec:
     def max_points(self) -> float:
         return float(sum(ex.points for ex in self.exercises))
 
+    def guarded_names(self) -> list[str]:
+        """Every ``module:name`` out of reach while an exercise runs: the exercises'
+        ``blocked`` lists, and each reference that is a function of the spec's own module."""
+        names = {name for ex in self.exercises for name in ex.blocked}
+        module = sys.modules.get(f"grader.labs.{self.name}")
+        for ex in self.exercises:
+            name = getattr(ex.reference, "__name__", "")
+            if module is not None and getattr(module, name, None) is ex.reference:
+                names.add(f"{module.__name__}:{name}")
+        return sorted(names)
+
 
 def lab_names() -> tuple[str, ...]:
-    return LABS
+    """The labs that have a spec: every ``grader/labs/labNN.py``, in order."""
+    from grader import labs
+
+    return tuple(sorted(info.name for info in pkgutil.iter_modules(labs.__path__)
+                        if re.fullmatch(r"lab\d{2}", info.name)))
 
 
 def normalise_lab(lab: str | int) -> str:
@@ -92,8 +120,9 @@ def normalise_lab(lab: str | int) -> str:
     if not text.isdigit():
         raise ValueError(f"a lab is a number like 01 or a name like lab01; got {lab!r}")
     name = f"lab{int(text):02d}"
-    if name not in LABS:
-        raise ValueError(f"no such lab {name}; the kit has {', '.join(LABS)}")
+    known = lab_names()
+    if name not in known:
+        raise ValueError(f"no such lab {name}; the kit has {', '.join(known)}")
     return name
 
 
@@ -110,9 +139,33 @@ def load_lab(lab: str | int) -> LabSpec:
 def course_seed(exercise_id: str, student: str = "", secret: str | None = None) -> int:
     """Seed for an exercise's hidden cases, derived from the course secret.
 
-    The instructor keeps the secret (environment variable ``KIT_COURSE_SECRET``); without it
-    nobody can regenerate the hidden cases. ``student`` gives each student their own variant.
+    Without the secret nobody can regenerate the hidden cases; ``None`` is practice (the
+    public :data:`PRACTICE_SECRET`). ``student`` gives each student their own variant.
     """
-    key = secret if secret is not None else os.environ.get("KIT_COURSE_SECRET", "kit-default")
+    key = PRACTICE_SECRET if secret is None else secret
     digest = hashlib.sha256(f"{key}\0{exercise_id}\0{student}".encode()).digest()
     return int.from_bytes(digest[:8], "little")
+
+
+class SecretError(ValueError):
+    """A course secret that is given but cannot be used."""
+
+
+def read_secret(secret_file: Path | None = None,
+                environ: Mapping[str, str] | None = None) -> str | None:
+    """The course secret: the text of ``secret_file`` (surrounding blanks removed) when one
+    is given, else the environment variable ``KIT_COURSE_SECRET``; ``None`` when neither.
+
+    Raises :class:`SecretError` for a file that cannot be read or holds nothing.
+    """
+    if secret_file is not None:
+        try:
+            text = Path(secret_file).read_text(encoding="utf-8").strip()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise SecretError(f"cannot read the course secret from {secret_file}: {exc}") \
+                from None
+        if not text:
+            raise SecretError(f"{secret_file} is empty: it should hold the course secret")
+        return text
+    value = (os.environ if environ is None else environ).get(SECRET_VARIABLE, "").strip()
+    return value or None

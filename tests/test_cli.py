@@ -41,7 +41,7 @@ def test_grader_grade_then_feedback(tmp_path, capsys):
     shutil.copy("solutions/01-kinematics.ipynb", tmp_path / "ada.ipynb")
     out = tmp_path / "gb.csv"
     assert grader_cli.main(["grade", str(tmp_path / "ada.ipynb"), "--lab", "01", "--out",
-                            str(out)]) == 0
+                            str(out), "--practice"]) == 0
     printed = capsys.readouterr().out
     assert "sandbox:" in printed and "ada" in printed and "20 / 20" in printed
     assert grader_cli.main(["feedback", str(tmp_path / "gb.json"), "--out",

@@ -19,7 +19,8 @@ import pytest
 
 from grader import checker, release
 from grader.feedback import write_feedback
-from grader.grade import grade_class
+from grader.gradebook import grade_class
+from grader.results import display_points
 from grader.spec import load_lab
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,8 +61,9 @@ def test_a_class_of_100_grades_correctly_and_resumes_after_an_interruption(tmp_p
     out = tmp_path / "gradebook.csv"
     command = [sys.executable, "-m", "grader", "grade", str(tmp_path / "class"), "--lab", "01",
                "--out", str(out), "--jobs", "2"]
+    env = {**os.environ, "KIT_COURSE_SECRET": "class-of-100"}
     first = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                             start_new_session=True)
+                             start_new_session=True, env=env)
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline:
         time.sleep(0.5)
@@ -71,7 +73,8 @@ def test_a_class_of_100_grades_correctly_and_resumes_after_an_interruption(tmp_p
     first.wait()
     halfway = read_rows(out)  # atomic writes: a complete, readable file
     assert 50 <= len(halfway) < 100
-    second = subprocess.run(command, capture_output=True, text=True, timeout=600, check=True)
+    second = subprocess.run(command, capture_output=True, text=True, timeout=600, check=True,
+                            env=env)
     summary = re.search(r"graded (\d+), kept (\d+) unchanged", second.stdout)
     assert summary is not None
     graded, kept = int(summary.group(1)), int(summary.group(2))
@@ -82,16 +85,19 @@ def test_a_class_of_100_grades_correctly_and_resumes_after_an_interruption(tmp_p
     assert len(rows) == 100
     totals = {kind: {rows[s]["total"] for s, k in kinds.items() if k == kind}
               for kind in ("solution", "untouched", "swapped")}
-    assert totals["solution"] == {"20"} and totals["untouched"] == {"0"}
-    assert len(totals["swapped"]) == 1 and 16 < float(next(iter(totals["swapped"]))) < 20
+    full = load_lab("lab01").max_points
+    assert totals["solution"] == {display_points(full)} and totals["untouched"] == {"0"}
+    assert len(totals["swapped"]) == 1 and full - 3 < float(next(iter(totals["swapped"]))) < full
     assert {row["status"] for row in rows.values()} == {"ok"}
     # a third run regrades nothing; changing one notebook regrades only that one
-    third = subprocess.run(command, capture_output=True, text=True, timeout=600, check=True)
+    third = subprocess.run(command, capture_output=True, text=True, timeout=600, check=True,
+                           env=env)
     assert "graded 0, kept 100 unchanged" in third.stdout
     shutil.copy(SOLUTION, tmp_path / "class" / "student001.ipynb")  # was untouched
-    fourth = subprocess.run(command, capture_output=True, text=True, timeout=600, check=True)
+    fourth = subprocess.run(command, capture_output=True, text=True, timeout=600, check=True,
+                            env=env)
     assert "graded 1, kept 99 unchanged" in fourth.stdout
-    assert read_rows(out)["student001"]["total"] == "20"
+    assert read_rows(out)["student001"]["total"] == display_points(full)
 
 
 def test_dask_cluster_grades_like_local_jobs(tmp_path):
@@ -104,8 +110,14 @@ def test_dask_cluster_grades_like_local_jobs(tmp_path):
                                   dashboard_address=None) as cluster:
         remote = grade_class(paths, spec, tmp_path / "b.csv", tmp_path / "b.json",
                              dask_address=cluster.scheduler_address)
-    assert [r.total for r in remote] == [r.total for r in local] == \
-        [20.0, 0.0, pytest.approx(17.33, abs=0.01), 20.0, 0.0, pytest.approx(17.33, abs=0.01)]
+    full = spec.max_points
+    fk = spec.exercise("forward_kinematics")
+    swapped = [c for c in local[2].exercises[fk.id].cases]
+    lost = fk.points * sum(not c.passed for c in swapped) / len(swapped)
+    assert [r.total for r in remote] == [r.total for r in local]
+    assert [r.total for r in local] == pytest.approx([full, 0.0, full - lost, full, 0.0,
+                                                      full - lost], rel=1e-12)
+    assert 0 < lost < fk.points
 
 
 def test_feedback_files_never_leak_hidden_cases(tmp_path):
@@ -131,13 +143,13 @@ def test_feedback_files_never_leak_hidden_cases(tmp_path):
     assert "not implemented yet" in (tmp_path / "feedback" / "student001.md").read_text()
 
 
-@pytest.mark.parametrize("layer", ["unshare", "rlimits"])
-def test_the_other_sandbox_layers_grade_too(tmp_path, layer):
+@pytest.mark.parametrize("layer", ["bwrap", "unshare", "rlimits"])
+def test_every_sandbox_layer_grades_and_is_reported(tmp_path, layer):
     from grader.sandbox import layer_works
 
     if not layer_works(layer):
-        pytest.skip(f"the {layer} layer cannot run here (it needs root, setpriv and a kit "
-                    f"installation the user nobody can read)")
+        pytest.skip(f"the {layer} layer cannot run here (it needs root and {layer}, and a kit "
+                    f"installation other users can read)")
     folder = tmp_path / "class"
     folder.mkdir()
     shutil.copy(SOLUTION, folder / "alice.ipynb")
@@ -146,14 +158,19 @@ def test_the_other_sandbox_layers_grade_too(tmp_path, layer):
     nb.cells = [nbformat.v4.new_code_cell(f"open({str(folder / 'alice.ipynb')!r}).read()")]
     nbformat.write(nb, folder / "eve.ipynb")
     env = {**os.environ, "KIT_SANDBOX": layer}
-    subprocess.run([sys.executable, "-m", "grader", "grade", str(folder), "--lab", "1",
-                    "--out", str(tmp_path / "gb.csv")], env=env, check=True,
-                   capture_output=True, timeout=300)
+    command = [sys.executable, "-m", "grader", "grade", str(folder), "--lab", "1", "--practice",
+               "--out", str(tmp_path / "gb.csv")]
+    if layer == "rlimits":
+        refused = subprocess.run(command, env=env, capture_output=True, text=True, timeout=300)
+        assert refused.returncode == 2 and "--allow-no-isolation" in refused.stderr
+        assert not (tmp_path / "gb.csv").exists()
+        command.append("--allow-no-isolation")
+    subprocess.run(command, env=env, check=True, capture_output=True, timeout=300)
     data = json.loads((tmp_path / "gb.json").read_text())
     by = {s["student"]: s for s in data["submissions"]}
-    assert data["sandbox"] == layer and by["alice"]["total"] == 20
-    if layer == "unshare":
-        assert "Permission denied" in by["eve"]["cell_errors"][0]["error"]
+    assert data["sandbox"] == layer and by["alice"]["total"] == load_lab("lab01").max_points
+    if layer != "rlimits":
+        assert "No such file" in by["eve"]["cell_errors"][0]["error"]
 
 
 def test_released_labs_carry_nbgrader_metadata_like_nbgraders_own(shared_data):

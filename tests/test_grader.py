@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 from pathlib import Path
@@ -12,15 +13,11 @@ import pytest
 
 from grader import checker, release, serialize
 from grader.compare import compare
-from grader.grade import (
-    find_submissions,
-    grade_notebook,
-    grade_submissions,
-    student_id,
-    write_gradebook,
-    write_results,
-)
-from grader.spec import course_seed, load_lab
+from grader.grade import grade_notebook, grade_submissions
+from grader.gradebook import write_gradebook, write_results
+from grader.results import exact_points
+from grader.spec import Case, Exercise, LabSpec, course_seed, lab_names, load_lab
+from grader.submissions import find_submissions, student_id
 from kit import msgs
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -63,24 +60,32 @@ def test_unpaired_markers_are_reported_with_their_place(bad):
         release.strip_solutions(bad, "lab.ipynb, cell 3")
 
 
+def one_exercise_spec(lab: str, *functions: str) -> LabSpec:
+    """A spec whose exercises are the given functions (one public case each)."""
+    return LabSpec(lab, "a test lab", tuple(
+        Exercise(id=f"{lab}.{f}", function=f, reference=lambda: 1, points=1,
+                 public=(Case("one", ()),), hidden=lambda rng: []) for f in functions))
+
+
 def test_release_writes_and_detects_stale_labs(tmp_path):
     sol, labs = tmp_path / "solutions", tmp_path / "labs"
     sol.mkdir()
+    specs = {"lab07": one_exercise_spec("lab07", "f")}
     nb = nbformat.v4.new_notebook()
     nb.cells = [nbformat.v4.new_code_cell("def f():\n    ### BEGIN SOLUTION\n    return 1\n"
                                           "    ### END SOLUTION")]
     nbformat.write(nb, sol / "07-x.ipynb")
-    assert release.check_release(sol, labs) == [f"{labs / '07-x.ipynb'} is missing: run "
-                                                f"`grader release`"]
-    release.release(sol, labs)
-    assert release.check_release(sol, labs) == []
+    assert release.check_release(sol, labs, specs) == [f"{labs / '07-x.ipynb'} is missing: run "
+                                                       f"`grader release`"]
+    release.release(sol, labs, specs)
+    assert release.check_release(sol, labs, specs) == []
     assert "raise NotImplementedError()" in (labs / "07-x.ipynb").read_text()
     nb.cells[0].source = nb.cells[0].source.replace("return 1", "return 2")
     nbformat.write(nb, sol / "07-x.ipynb")
-    assert release.check_release(sol, labs) == []  # only the hidden solution changed
-    nb.cells[0].source = nb.cells[0].source.replace("def f()", "def g()")
+    assert release.check_release(sol, labs, specs) == []  # only the hidden solution changed
+    nb.cells.append(nbformat.v4.new_code_cell("x = 1"))
     nbformat.write(nb, sol / "07-x.ipynb")
-    assert "out of date" in release.check_release(sol, labs)[0]
+    assert "out of date" in release.check_release(sol, labs, specs)[0]
 
 
 # ------------------------------------------------------------------ codec and comparison
@@ -173,6 +178,53 @@ def test_check_says_not_implemented_passes_and_explains(capsys):
     assert "has no exercise 'broken'" in capsys.readouterr().out
 
 
+def test_check_lists_up_to_three_failing_cases_after_a_summary(capsys):
+    check = checker("lab01")
+
+    def turning_radius(linear, angular):
+        return 7.0  # every case wrong
+
+    check(turning_radius)
+    lines = capsys.readouterr().out.splitlines()
+    ex = load_lab("lab01").exercise("turning_radius")
+    assert lines[0] == (f"✗ lab01.turning_radius: {len(ex.public)} of {len(ex.public)} public "
+                        f"cases fail.")
+    shown = [line for line in lines[1:] if line.startswith("  case '")]
+    assert [line.split("'")[1] for line in shown] == [c.name for c in ex.public[:3]]
+    assert all("expected" in line and "got 7" in line for line in shown)
+    assert lines[-1] == f"  … and {len(ex.public) - 3} more"
+
+    def igv_wheel_rpm(linear, angular):  # two of three cases fail, each with its hint
+        return (4000 * linear + 1440 * angular) / 67, (4000 * linear - 1440 * angular) / 67
+
+    check(igv_wheel_rpm)
+    out = capsys.readouterr().out
+    assert "2 of 3 public cases fail." in out and out.count("swapped wheels") == 2
+    assert "… and" not in out
+
+
+def test_check_refuses_the_kit_reference_as_grading_does(capsys):
+    """A ✓ in the notebook is never a 0 in the gradebook: calling the reference, or handing
+    it to check, is ✗ with the kit's explanation at once."""
+    import kit.kinematics
+
+    check = checker("lab01")
+
+    def turning_radius(linear, angular):
+        return kit.kinematics.turning_radius(linear, angular)
+
+    check(turning_radius)
+    out = capsys.readouterr().out
+    assert out.startswith("✗ lab01.turning_radius") and "PermissionError" in out
+    assert "your own code" in out
+    check(kit.kinematics.turning_radius)
+    out = capsys.readouterr().out
+    assert out.startswith("✗ lab01.turning_radius: kit.kinematics.turning_radius is the kit's "
+                          "reference")
+    # outside check the kit keeps working for the notebook's own cells
+    assert kit.kinematics.turning_radius(1.0, 0.5) == 2.0
+
+
 def test_check_is_silent_while_grading(capsys, monkeypatch):
     monkeypatch.setenv("KIT_GRADING", "1")
     checker("lab02")(lambda: 1)
@@ -194,7 +246,7 @@ def test_every_exercise_reference_passes_its_own_cases_and_no_diagnostic_equals_
     """A diagnostic that gave the right answer would call correct work a mistake."""
     from grader.compare import matches
 
-    for lab in ("lab01", "lab02", "lab03"):
+    for lab in lab_names():
         for ex in load_lab(lab).exercises:
             for case in (*ex.public, *ex.hidden_cases(1)):
                 expected = ex.reference(*case.args, **case.kwargs)
@@ -228,26 +280,40 @@ def mutate(src_notebook: Path, dest: Path, old: str, new: str) -> Path:
     return dest
 
 
+def lab_notebook(folder: Path, lab: str) -> Path:
+    (path,) = folder.glob(f"{lab[-2:]}-*.ipynb")
+    return path
+
+
 def test_solutions_score_full_and_untouched_labs_score_zero(tmp_path):
+    """Every lab with a spec: its solution earns every point with no cell error, warning or
+    accusation anywhere in its results; the untouched release earns nothing."""
     results = {}
-    for lab, name in (("lab01", "01-kinematics.ipynb"), ("lab02", "02-odometry.ipynb"),
-                      ("lab03", "03-drivers.ipynb"), ("lab04", "04-motor-control.ipynb"),
-                      ("lab05", "05-fusion.ipynb")):
+    for lab in lab_names():
         spec = load_lab(lab)
-        graded = grade_submissions([SOLUTIONS / name, LABS / name], spec, jobs=2)
+        graded = grade_submissions([lab_notebook(SOLUTIONS, lab), lab_notebook(LABS, lab)], spec,
+                                   jobs=2)
         results[lab] = graded
         solution, untouched = graded
-        assert solution.status == "ok" and solution.total == spec.max_points
+        assert solution.status == "ok" and solution.total == spec.max_points, solution.reason
+        assert solution.cell_errors == [], solution.cell_errors
+        assert all(e.status == "passed" and e.reason == f"all {len(e.cases)} cases pass"
+                   for e in solution.exercises.values())
+        assert all(c.passed and c.message == "" for e in solution.exercises.values()
+                   for c in e.cases)
         assert untouched.status == "ok" and untouched.total == 0
         assert {e.status for e in untouched.exercises.values()} == {"not implemented"}
         assert all(e.reason == "not implemented yet" for e in untouched.exercises.values())
     spec = load_lab("lab01")
     write_gradebook(tmp_path / "gb.csv", results["lab01"], spec)
-    rows = (tmp_path / "gb.csv").read_text().splitlines()
-    assert rows[0].split(",")[:2] == ["student", "lab01.constraint_matrices"]
-    assert rows[0].endswith("total,max,percent,status,reason")
-    assert rows[1].startswith("01-kinematics,2,3,3,2,2,2,2,2,2,20,20,100.0,ok") or \
-        rows[1].startswith("solutions,2,3,3,2,2,2,2,2,2,20,20,100.0,ok")
+    with open(tmp_path / "gb.csv", newline="") as fh:
+        header, row = list(csv.reader(fh))[:2]
+    assert header == ["student", *[ex.id for ex in spec.exercises], "total", "max", "percent",
+                      "status", "reason"]
+    expected = [exact_points(ex.points) for ex in spec.exercises]
+    assert row[1:-1] == [*expected, f"{spec.max_points:g}", f"{spec.max_points:g}", "100.0",
+                         "ok"]
+    assert "practice grading" in row[-1]  # graded without a course secret
     write_results(tmp_path / "gb.json", results["lab01"], spec)
     data = json.loads((tmp_path / "gb.json").read_text())
     cases = data["submissions"][0]["exercises"]["lab01.forward_kinematics"]["cases"]
@@ -327,23 +393,25 @@ BUGS = [
 
 
 def test_seeded_bugs_lose_exactly_their_exercise(tmp_path):
-    paths, expectations = [], []
+    by_lab: dict[str, list[tuple[Path, str, str]]] = {}
     for i, (lab, name, function, old, new, hint) in enumerate(BUGS):
-        paths.append((lab, mutate(SOLUTIONS / name, tmp_path / f"bug{i}.ipynb", old, new)))
-        expectations.append((lab, function, hint))
-    for (lab, path), (_, function, hint) in zip(paths, expectations, strict=True):
+        path = mutate(SOLUTIONS / name, tmp_path / f"bug{i}.ipynb", old, new)
+        by_lab.setdefault(lab, []).append((path, function, hint))
+    for lab, bugs in by_lab.items():
         spec = load_lab(lab)
-        result = grade_notebook(path, spec)
-        lost = {k: v for k, v in result.exercises.items() if v.points < v.max_points}
-        assert list(lost) == [f"{lab}.{function}"], (path.name, {k: v.reason for k, v in
-                                                                  lost.items()})
-        ex = lost[f"{lab}.{function}"]
-        failed = sum(not c.passed for c in ex.cases)
-        assert failed > 0
-        # partial credit: the points of the failed cases, and only those, are lost
-        expected_loss = spec.exercise(function).points * failed / len(ex.cases)
-        assert result.total == pytest.approx(spec.max_points - expected_loss, abs=0.011)
-        assert hint in ex.reason, ex.reason
+        graded = grade_submissions([path for path, _, _ in bugs], spec, jobs=2)
+        for result, (path, function, hint) in zip(graded, bugs, strict=True):
+            lost = {k: v for k, v in result.exercises.items() if v.points < v.max_points}
+            assert list(lost) == [f"{lab}.{function}"], (path.name, {k: v.reason for k, v in
+                                                                      lost.items()})
+            assert result.cell_errors == [], (path.name, result.cell_errors)
+            ex = lost[f"{lab}.{function}"]
+            failed = sum(not c.passed for c in ex.cases)
+            assert failed > 0
+            # partial credit: the points of the failed cases, and only those, are lost
+            expected_loss = spec.exercise(function).points * failed / len(ex.cases)
+            assert result.total == pytest.approx(spec.max_points - expected_loss, rel=1e-12)
+            assert hint in ex.reason, ex.reason
 
 
 def test_partial_credit_counts_cases():
@@ -356,8 +424,10 @@ def test_partial_credit_counts_cases():
         result = grade_notebook(path, load_lab("lab01"))
     ex = result.exercises["lab01.turning_radius"]
     assert [c.case for c in ex.cases if not c.passed] == ["straight", "hidden case 4"]
-    assert ex.points == 1.5 and ex.status == "error"
+    assert ex.points == 2 * 6 / 8 and ex.status == "error"
     assert "ZeroDivisionError" in ex.reason
+    hidden = next(c for c in ex.cases if c.case == "hidden case 4")
+    assert hidden.message == "raised ZeroDivisionError"  # a verdict, not the exception's text
 
 
 def test_malformed_and_non_utf8_notebooks_get_a_row(tmp_path):
@@ -365,7 +435,8 @@ def test_malformed_and_non_utf8_notebooks_get_a_row(tmp_path):
     (tmp_path / "latin.ipynb").write_bytes(b'{"cells": "\xe9\xff"}')
     notebook_with(tmp_path / "empty.ipynb", "x = 1")
     spec = load_lab("lab02")
-    results = {r.student: r for r in grade_submissions(find_submissions([tmp_path], "lab02"),
+    results = {r.student: r for r in grade_submissions([s.path for s in find_submissions(
+        [tmp_path], "lab02").submissions],
                                                        spec, jobs=2)}
     assert results["broken"].status == "malformed notebook"
     assert results["latin"].status == "malformed notebook"

@@ -1,28 +1,48 @@
-"""Hostile submissions: each gets a defined grade and reason, leaves the others alone, and
-never crashes the grader. They are graded together with an honest solution in one run."""
+"""Hostile submissions, graded together with an honest one in one class run, under each layer
+that claims to isolate (bubblewrap and unshare, forced with KIT_SANDBOX): every one gets a
+defined grade and reason, none can read or write what is not its own, leak a hidden case,
+leave a file behind, or stop the others being graded."""
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import stat
+import sys
 from pathlib import Path
 
 import nbformat
 import pytest
 
-from grader.grade import SubmissionResult, grade_class
-from grader.sandbox import detect_layer
-from grader.spec import load_lab
+from grader.feedback import write_feedback
+from grader.gradebook import grade_class
+from grader.results import SubmissionResult
+from grader.sandbox import ISOLATING, UID_RANGE, layer_works
+from grader.spec import course_seed, load_lab
 
 ROOT = Path(__file__).resolve().parents[1]
+SECRET = "hostile-class-secret"
+MARK = "kit-hostile-litter-7f3a"
 GOOD_RADIUS = ("import math\n"
                "def turning_radius(linear, angular):\n"
                "    if angular == 0:\n"
                "        return -math.inf if linear < 0 else math.inf\n"
                "    return linear / angular\n")
+PROBE = ("import json, os\n"
+         "def probe(paths):\n"
+         "    found = []\n"
+         "    for p in paths:\n"
+         "        try:\n"
+         "            os.listdir(p) if os.path.isdir(p) else open(p, 'rb').read(1)\n"
+         "            found.append(p)\n"
+         "        except OSError:\n"
+         "            pass\n"
+         "    return found\n")
 
 
-def hostile_cells(tmp: Path) -> dict[str, list[str]]:
+def classic_cells(tmp: Path) -> dict[str, list[str]]:
+    """Hostile submissions the grader already withstood; they must keep their grades."""
     other = tmp / "class" / "alice.ipynb"
     gradebook = tmp / "out" / "gradebook.csv"
     return {
@@ -38,7 +58,7 @@ def hostile_cells(tmp: Path) -> dict[str, list[str]]:
                                 "    os._exit(0)"],
         "segfault": ["import ctypes\nctypes.string_at(0)"],
         "fake_verdict": ["print('✓ all 9 exercises pass: 20 / 20')\n"
-                         "print('{\"outcomes\": {}, \"cell_errors\": []}')",
+                         "print('{\"phase\": \"public\", \"outcomes\": {}, \"cell_errors\": []}')",
                          "def turning_radius(linear, angular):\n    return 42.0"],
         "fake_results_file": [
             "import json, os\n"
@@ -70,55 +90,196 @@ def hostile_cells(tmp: Path) -> dict[str, list[str]]:
     }
 
 
+def new_cells(tmp: Path) -> dict[str, list[str]]:
+    """The holes issue 10 found, one submission each."""
+    home_entries = [str(Path.home() / name) for name in sorted(os.listdir(Path.home()))]
+    readable = [str(ROOT / "solutions" / "01-kinematics.ipynb"), str(ROOT / "solutions"),
+                str(tmp / "class" / "alice.ipynb"), str(tmp / "class"), str(tmp / "out"),
+                str(ROOT / ".git"), str(ROOT / "README.md"), str(ROOT / "tests"), str(ROOT),
+                str(Path.home()), *home_entries, "/etc/shadow", "/root"]
+    leak_line = "\n" * 3  # padding; the leaky exercise also varies its line by the input
+    return {
+        "deletes_everything": [
+            "import os, shutil\nfor p in ('..', '.', '/tmp', os.path.expanduser('~')):\n"
+            "    shutil.rmtree(p, ignore_errors=True)\n"
+            "for p in os.listdir('.'):\n    try:\n        os.remove(p)\n"
+            "    except OSError:\n        pass", GOOD_RADIUS],
+        "tidies_up": ["import os\nopen('scratch.txt', 'w').write('x')\nos.remove('scratch.txt')",
+                      GOOD_RADIUS],
+        "reads_absolute_paths": [
+            PROBE, f"found = probe({readable!r})\n"
+                   f"listed = {{p: sorted(os.listdir(p)) for p in {[str(ROOT), str(Path.home())]!r}"
+                   f" if os.path.isdir(p)}}", GOOD_RADIUS,
+            "raise RuntimeError('FOUND ' + json.dumps([found, listed]))"],
+        "leaks_hidden_inputs": [
+            "import sys, os\n"
+            "def turning_radius(linear, angular):\n"
+            f"{leak_line}"
+            "    text = f'INPUTS linear={linear!r} angular={angular!r}'\n"
+            "    print(text)\n    print(text, file=sys.stderr)\n"
+            "    for d in ('.', '/tmp', '/dev/shm', os.environ.get('TMPDIR', '.')):\n"
+            f"        open(os.path.join(d, '{MARK}-' + text.replace(' ', '_')), 'w').write(text)\n"
+            "    kind = type('Leak_' + repr(linear).replace('.', '_').replace('-', 'm'), "
+            "(ValueError,), {})\n"
+            "    code = '\\n' * int(abs(linear) * 1000) + 'raise kind(text)'\n"
+            "    exec(compile(code, 'leak', 'exec'), {'kind': kind, 'text': text})\n"],
+        "leaks_through_a_crash": [
+            "import os, signal, sys\n"
+            "def turning_radius(linear, angular):\n"
+            "    if (linear, angular) not in {(1.0, 0.5), (1.0, -0.5), (0.5, 0.0), (0.0, 1.0)}:\n"
+            "        sys.stderr.write(f'INPUTS linear={linear!r} angular={angular!r}\\n')\n"
+            "        sys.stderr.flush()\n"
+            "        os.kill(os.getpid(), signal.SIGSEGV)\n"
+            "    return float('inf') if angular == 0 else linear / angular\n"],
+        "leaks_through_an_exit_code": [
+            "import os\n"
+            "def turning_radius(linear, angular):\n"
+            "    if (linear, angular) not in {(1.0, 0.5), (1.0, -0.5), (0.5, 0.0), (0.0, 1.0)}:\n"
+            "        os._exit(int(abs(linear) * 1000) % 256)\n"
+            "    return float('inf') if angular == 0 else linear / angular\n"],
+        "leaks_through_the_answer_channel": [
+            "import os, sys\n"
+            "def turning_radius(linear, angular):\n"
+            "    if (linear, angular) not in {(1.0, 0.5), (1.0, -0.5), (0.5, 0.0), (0.0, 1.0)}:\n"
+            "        pad = ' ' * int(abs(linear) * 1000)\n"
+            "        os.write(int(sys.argv[1]), ('{\"phase\": \"hidden\",' + pad + 'x\\n')"
+            ".encode())\n"
+            "        os._exit(0)\n"
+            "    return float('inf') if angular == 0 else linear / angular\n"],
+        "litters_tmp": [
+            "import os, tempfile\n"
+            f"for d in ('/tmp', '/dev/shm', tempfile.gettempdir(), '.'):\n"
+            f"    open(os.path.join(d, '{MARK}'), 'w').write('left behind')\n"
+            f"    os.makedirs(os.path.join(d, '{MARK}-dir'), exist_ok=True)", GOOD_RADIUS],
+        "unbounded_fork_bomb": ["import os\nwhile True:\n    os.fork()", GOOD_RADIUS],
+        "loads_reference_by_path": [
+            "import importlib.util, kit.kinematics as k\n"
+            "spec = importlib.util.spec_from_file_location('mine', k.__file__)\n"
+            "mine = importlib.util.module_from_spec(spec)\nspec.loader.exec_module(mine)\n"
+            "def turning_radius(linear, angular):\n"
+            "    return mine.turning_radius(linear, angular)"],
+        "loads_reference_by_spec_and_name": [
+            "import importlib.util, sys, kit.kinematics as k\n"
+            "def turning_radius(linear, angular):\n"
+            "    spec = importlib.util.spec_from_file_location('kit_kinematics_copy', k.__file__)\n"
+            "    mod = importlib.util.module_from_spec(spec)\n"
+            "    sys.modules['kit_kinematics_copy'] = mod\n    spec.loader.exec_module(mod)\n"
+            "    return mod.turning_radius(linear, angular)"],
+        "executes_reference_source": [
+            "import kit.kinematics as k\nnamespace = {}\n"
+            "exec(open(k.__file__).read(), namespace)\n"
+            "turning_radius = namespace.get('turning_radius')"],
+        "loads_compiled_reference": [
+            "import glob, importlib.machinery, importlib.util, os, kit.kinematics as k\n"
+            "def turning_radius(linear, angular):\n"
+            "    cache = os.path.join(os.path.dirname(k.__file__), '__pycache__')\n"
+            "    for pyc in glob.glob(os.path.join(cache, 'kinematics.*.pyc')):\n"
+            "        loader = importlib.machinery.SourcelessFileLoader('kc', pyc)\n"
+            "        spec = importlib.util.spec_from_loader('kc', loader)\n"
+            "        mod = importlib.util.module_from_spec(spec)\n"
+            "        loader.exec_module(mod)\n"
+            "        return mod.turning_radius(linear, angular)\n"
+            "    raise FileNotFoundError('no compiled copy')"],
+        "reference_in_a_fresh_process": [
+            "import subprocess, sys\n"
+            "def turning_radius(linear, angular):\n"
+            "    out = subprocess.run([sys.executable, '-c', 'import sys; from kit.kinematics "
+            "import turning_radius as t; print(repr(t(float(sys.argv[1]), float(sys.argv[2]))))',"
+            " repr(linear), repr(angular)], capture_output=True, text=True, check=True)\n"
+            "    return float(out.stdout)"],
+        "reference_from_the_spec": [
+            "from grader.labs.lab01 import SPEC\n"
+            "turning_radius = SPEC.exercise('turning_radius').reference"],
+        "reference_inside_own_code": [
+            "import kit.kinematics\n"
+            "def turning_radius(linear, angular):\n"
+            "    return kit.kinematics.turning_radius(linear, angular)"],
+        "syntax_error": ["import math\n\ndef turning_radius(linear, angular):\n"
+                         "    return linear /\n"],
+    }
+
+
 def write_notebook(path: Path, cells: list[str]) -> Path:
     nb = nbformat.v4.new_notebook()
-    nb.cells = [nbformat.v4.new_code_cell(c) for c in cells]
+    nb.cells = [nbformat.v4.new_markdown_cell("# my lab")] + [nbformat.v4.new_code_cell(c)
+                                                              for c in cells]
     nbformat.write(nb, path)
     return path
 
 
-@pytest.fixture(scope="module")
-def graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, SubmissionResult], Path]:
-    tmp = tmp_path_factory.mktemp("hostile")
-    folder = tmp / "class"
+def _sandbox_owned(folder: str) -> list[str]:
+    found = []
+    for name in os.listdir(folder):
+        try:
+            uid = os.lstat(os.path.join(folder, name)).st_uid
+        except OSError:
+            continue
+        if MARK in name or UID_RANGE[0] <= uid < UID_RANGE[1]:
+            found.append(name)
+    return found
+
+
+@pytest.fixture(scope="module", params=ISOLATING)
+def graded(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory):
+    layer = request.param
+    if not layer_works(layer):
+        pytest.skip(f"the {layer} layer cannot run here (root, {layer} and a kit other users "
+                    f"can read are needed; CI has them)")
+    tmp = tmp_path_factory.mktemp(f"hostile-{layer}")
+    folder, out = tmp / "class", tmp / "out"
     folder.mkdir()
-    (tmp / "out").mkdir()
+    out.mkdir()
     alice = folder / "alice.ipynb"
     alice.write_bytes((ROOT / "solutions" / "01-kinematics.ipynb").read_bytes())
-    os.chmod(alice, stat.S_IRUSR | stat.S_IWUSR)  # other students cannot read it
-    for name, cells in hostile_cells(tmp).items():
-        if name == "writes_gradebook_and_submissions" and detect_layer() == "rlimits":
-            continue  # the weakest layer runs submissions as the grader's user: it cannot
-            # stop them writing files (README: use bubblewrap or grade as root)
+    os.chmod(alice, stat.S_IRUSR | stat.S_IWUSR)
+    for name, cells in {**classic_cells(tmp), **new_cells(tmp)}.items():
         write_notebook(folder / f"{name}.ipynb", cells)
+    write_notebook(folder / "zed.ipynb", [GOOD_RADIUS])  # graded after the fork bomb
     (folder / "not_json.ipynb").write_text('{"cells": [', encoding="utf-8")
     (folder / "latin1.ipynb").write_bytes(b'{"cells": "\xe9\xff"}')
+    import py_compile
+
+    import kit.kinematics
+
+    # a compiled copy of the reference beside it, as any checkout that ran Python has
+    py_compile.compile(kit.kinematics.__file__, doraise=True)
+    litter_before = {d: _sandbox_owned(d) for d in ("/tmp", "/dev/shm")}
     before = alice.read_bytes()
-    results = grade_class(sorted(folder.glob("*.ipynb")), load_lab("lab01"),
-                          tmp / "out" / "gradebook.csv", tmp / "out" / "gradebook.json",
-                          jobs=2, timeout=30, memory_mb=1024)
+    mp = pytest.MonkeyPatch()
+    mp.setenv("KIT_SANDBOX", layer)
+    mp.setenv("KIT_COURSE_SECRET", "not-the-secret-given")  # the grader must not pass it on
+    try:
+        results = grade_class(sorted(folder.glob("*.ipynb")), load_lab("lab01"),
+                              out / "gradebook.csv", out / "gradebook.json", jobs=2,
+                              timeout=25, memory_mb=1024, secret=SECRET, layer=layer)
+    finally:
+        mp.undo()
     assert alice.read_bytes() == before
-    return {r.student: r for r in results}, tmp
+    write_feedback(out / "gradebook.json", out / "feedback")
+    litter = {d: _sandbox_owned(d) for d in ("/tmp", "/dev/shm")}
+    return {r.student: r for r in results}, tmp, layer, (litter_before, litter)
 
 
-def test_the_honest_student_is_unaffected(graded):
-    results, _ = graded
-    assert results["alice"].status == "ok" and results["alice"].total == 20
+def test_the_honest_student_is_unaffected_and_has_no_cell_error(graded):
+    results, _, layer, _ = graded
+    alice = results["alice"]
+    assert alice.status == "ok" and alice.total == 20 and alice.sandbox == layer
+    assert alice.cell_errors == []
 
 
 @pytest.mark.parametrize(("name", "status", "reason"), [
-    ("loop_at_import", "timeout", "did not finish within 30 s"),
+    ("loop_at_import", "timeout", "did not finish within 25 s"),
     ("memory_bomb", "memory", "ran out of memory"),
     ("os_exit_at_import", "crashed", "exited with code 3"),
     ("os_exit_in_exercise", "crashed", "without reporting"),
     ("segfault", "crashed", "SIGSEGV"),
-    ("fake_results_file", "ok", "graded"),
+    ("fake_results_file", "crashed", "without reporting"),
     ("gigabyte_of_output", "output limit", "printed more than 64 MB"),
     ("not_json", "malformed notebook", "JSON"),
     ("latin1", "malformed notebook", "UTF-8"),
 ])
 def test_hostile_submission_gets_its_status_and_reason(graded, name, status, reason):
-    results, _ = graded
+    results, *_ = graded
     r = results[name]
     assert r.status == status, r.reason
     assert reason in r.reason
@@ -127,52 +288,135 @@ def test_hostile_submission_gets_its_status_and_reason(graded, name, status, rea
 
 
 def test_exits_and_fork_bombs_do_not_stop_grading_the_rest(graded):
-    results, _ = graded
-    for name in ("sys_exit_at_import", "fork_bomb"):
-        assert results[name].status == "ok"
-        assert results[name].exercises["lab01.turning_radius"].points == 2
+    results, *_ = graded
+    for name in ("sys_exit_at_import", "fork_bomb", "unbounded_fork_bomb", "zed"):
+        assert results[name].status == "ok", (name, results[name].reason)
+        assert results[name].exercises["lab01.turning_radius"].points == 2, name
+    bomb = [e["error"] for e in results["unbounded_fork_bomb"].cell_errors]
+    assert any("Resource temporarily unavailable" in e or "BlockingIOError" in e for e in bomb)
     case = results["sys_exit_in_exercise"].exercises["lab01.turning_radius"]
     assert case.points == 0 and "called sys.exit" in case.reason
     assert any("SystemExit" in e["error"] for e in results["sys_exit_at_import"].cell_errors)
 
 
+def test_a_submission_deleting_its_folder_and_above_gets_its_own_row(graded):
+    results, tmp, *_ = graded
+    for name in ("deletes_everything", "tidies_up"):
+        assert results[name].status == "ok", results[name].reason
+        assert results[name].exercises["lab01.turning_radius"].points == 2
+    assert (tmp / "class" / "alice.ipynb").exists() and (tmp / "out" / "gradebook.csv").exists()
+    assert len(results) == len(list((tmp / "class").glob("*.ipynb")))
+
+
 def test_printing_or_faking_verdicts_and_patching_change_nothing(graded):
-    results, _ = graded
+    results, *_ = graded
     for name in ("fake_verdict", "fake_results_file", "monkey_patching"):
         assert results[name].total == 0, name
-    assert "expected inf" in results["monkey_patching"].exercises[
-        "lab01.turning_radius"].reason or "expected" in results["monkey_patching"].exercises[
-        "lab01.turning_radius"].reason
+    assert "expected" in results["monkey_patching"].exercises["lab01.turning_radius"].reason
 
 
-def test_the_kit_reference_cannot_be_called_or_reloaded(graded):
-    results, _ = graded
+def test_absolute_paths_outside_the_sandbox_are_not_there(graded):
+    """Solutions, another submission, the gradebook, the repository's other files, the home
+    directory: nothing is readable. The repository's folder shows only the kit's packages
+    (and a virtual environment kept there); the home directory only the Python installation."""
+    results, *_ = graded
+    r = results["reads_absolute_paths"]
+    assert r.exercises["lab01.turning_radius"].points == 2
+    message = next(e["error"] for e in r.cell_errors if "FOUND" in e["error"])
+    found, listed = json.loads(message.split("FOUND ", 1)[1])
+    python = [Path(p).resolve() for p in (sys.base_prefix, sys.prefix)]
+    in_home = {p.relative_to(Path.home()).parts[0] for p in python if Path.home() in p.parents}
+    in_root = {"kit", "grader", "sim", "hardware"} | {
+        p.relative_to(ROOT).parts[0] for p in python if ROOT in p.parents}
+    assert set(listed.get(str(Path.home()), [])) <= in_home
+    assert set(listed.get(str(ROOT), [])) <= in_root
+    allowed = {str(Path.home()), "/root", str(ROOT), *(str(Path.home() / n) for n in in_home)}
+    assert set(found) <= allowed, set(found) - allowed
+
+
+def test_nothing_of_a_hidden_case_leaves_the_grader(graded):
+    """Its inputs reach the submission, which prints them, writes them to files, raises them,
+    names its exception class and its failing line after them, and crashes after printing
+    them: the JSON, the gradebook and the feedback hold none of it."""
+    results, tmp, *_ = graded
+    ex = load_lab("lab01").exercise("turning_radius")
+    data = json.loads((tmp / "out" / "gradebook.json").read_text(encoding="utf-8"))
+    csv_rows = (tmp / "out" / "gradebook.csv").read_text(encoding="utf-8").splitlines()
+    for student in ("leaks_hidden_inputs", "leaks_through_a_crash",
+                    "leaks_through_an_exit_code", "leaks_through_the_answer_channel"):
+        texts = [json.dumps(next(s for s in data["submissions"] if s["student"] == student)),
+                 (tmp / "out" / "feedback" / f"{student}.md").read_text(encoding="utf-8"),
+                 *[row for row in csv_rows if row.startswith(student)]]
+        for case in ex.hidden_cases(course_seed(ex.id, student, SECRET)):
+            for value in case.args:
+                if value == 0 or math.isinf(value):
+                    continue
+                for shown in (repr(value), f"{value:.4f}", repr(value).replace(".", "_")):
+                    assert not any(shown in text for text in texts), (student, shown)
+    leaky = results["leaks_hidden_inputs"].exercises["lab01.turning_radius"]
+    assert {c.message for c in leaky.cases if not c.public} == {"raised ValueError"}
+    assert all("INPUTS" in c.message for c in leaky.cases if c.public)  # public: shown
+    for student in ("leaks_through_a_crash", "leaks_through_an_exit_code",
+                    "leaks_through_the_answer_channel"):
+        crash = results[student]
+        assert crash.status == "crashed", crash.reason
+        assert crash.reason == ("the process ended while running the hidden cases; graded as "
+                                "far as it ran")  # not its signal, exit code or answer
+        assert crash.exercises["lab01.turning_radius"].points == 2 * 4 / 8  # public cases
+
+
+def test_nothing_is_left_in_tmp_or_dev_shm(graded):
+    _, _, _, (before, after) = graded
+    assert before == after == {"/tmp": [], "/dev/shm": []}
+
+
+@pytest.mark.parametrize("name", [
+    "calls_kit_reference", "reloads_kit_reference", "loads_reference_by_path",
+    "loads_reference_by_spec_and_name", "executes_reference_source", "loads_compiled_reference",
+    "reference_in_a_fresh_process", "reference_from_the_spec", "reference_inside_own_code"])
+def test_the_reference_cannot_be_reached_however_it_is_loaded(graded, name):
+    results, *_ = graded
+    ex = results[name].exercises["lab01.turning_radius"]
+    assert ex.points == 0, (name, ex.reason)
+
+
+def test_reference_calls_are_explained(graded):
+    results, *_ = graded
     reason = results["calls_kit_reference"].exercises["lab01.turning_radius"].reason
     assert "PermissionError" in reason and "your own code" in reason
+    reason = results["loads_reference_by_path"].exercises["lab01.turning_radius"].reason
+    assert "PermissionError" in reason and "cannot be loaded from its file" in reason
     reloaded = results["reloads_kit_reference"]
-    assert reloaded.total == 0
     assert any("blocked while grading" in e["error"] for e in reloaded.cell_errors)
 
 
 def test_no_secret_no_other_notebooks_no_writes(graded):
-    results, tmp = graded
+    results, tmp, *_ = graded
     errors = [e["error"] for e in results["reads_secret_and_others"].cell_errors]
     assert any("no secret here" in e for e in errors)
-    if detect_layer() != "rlimits":  # the weakest layer cannot hide or protect files
-        assert any(("No such file" in e or "Permission denied" in e) for e in errors), errors
-        write_errors = [e["error"] for e in
-                        results["writes_gradebook_and_submissions"].cell_errors]
-        assert len(write_errors) == 2 and all(
-            ("Read-only" in e or "Permission denied" in e or "No such file" in e)
-            for e in write_errors), write_errors
-        rows = (tmp / "out" / "gradebook.csv").read_text()
-        assert "mallory,20" not in rows
-        assert results["writes_gradebook_and_submissions"].exercises[
-            "lab01.turning_radius"].points == 2
+    assert any("No such file" in e or "Permission denied" in e for e in errors), errors
+    write_errors = [e["error"] for e in results["writes_gradebook_and_submissions"].cell_errors]
+    assert len(write_errors) == 2 and all(
+        "Read-only" in e or "Permission denied" in e or "No such file" in e
+        for e in write_errors), write_errors
+    assert "mallory,20" not in (tmp / "out" / "gradebook.csv").read_text()
+    assert results["writes_gradebook_and_submissions"].exercises[
+        "lab01.turning_radius"].points == 2
+
+
+def test_a_syntax_error_names_the_cell_the_student_sees(graded):
+    results, *_ = graded
+    r = results["syntax_error"]
+    error = r.cell_errors[0]
+    assert error["cell"] == 2 and error["first_line"] == "import math"  # cell 1 is markdown
+    assert error["kind"] == "syntax" and error["line"] == 4 and "SyntaxError" in error["error"]
+    reason = r.exercises["lab01.turning_radius"].reason
+    assert "no function 'turning_radius'" in reason and "cell 2 (`import math`)" in reason
+    assert "SyntaxError" in reason and "line 4" in reason
 
 
 def test_wrong_signatures_and_missing_functions_are_explained(graded):
-    results, _ = graded
+    results, *_ = graded
     reason = results["wrong_signature"].exercises["lab01.turning_radius"].reason
     assert "TypeError" in reason and "turning_radius(linear, angular)" in reason
     assert "turning_radius(linear)" in reason
@@ -181,7 +425,14 @@ def test_wrong_signatures_and_missing_functions_are_explained(graded):
 
 
 def test_the_sandbox_layer_is_reported(graded):
-    results, tmp = graded
-    assert {r.sandbox for r in results.values() if r.status != "malformed notebook"} == \
-        {detect_layer()}
-    assert f'"sandbox": "{detect_layer()}"' in (tmp / "out" / "gradebook.json").read_text()
+    results, tmp, layer, _ = graded
+    assert {r.sandbox for r in results.values() if r.status != "malformed notebook"} == {layer}
+    assert json.loads((tmp / "out" / "gradebook.json").read_text())["sandbox"] == layer
+
+
+def test_results_are_complete_rows(graded):
+    results, *_ = graded
+    for r in results.values():
+        assert isinstance(r, SubmissionResult)
+        assert set(r.exercises) == {ex.id for ex in load_lab("lab01").exercises}
+        assert r.status != "grader error", (r.student, r.reason)
