@@ -3,16 +3,22 @@ the axes; nothing here calls ``plt.show()``. Importing this package imports matp
 ``import kit`` does not.
 
 One private module per topic: ``_robot`` (the robot, paths, wheels), ``_estimation`` (errors
-against the truth); the labs of the think half add theirs beside them.
+against the truth), ``_planning`` (costmaps, paths, searches); the labs of the think half add
+theirs beside them.
 """
 
 from kit.viz._estimation import plot_odometry_drift
+from kit.viz._planning import costmap_colors, plot_costmap, plot_path, plot_search
 from kit.viz._robot import plot_icc, plot_robot, plot_trajectories, plot_wheel_commands
 
 __all__ = [
+    "costmap_colors",
+    "plot_costmap",
     "plot_icc",
     "plot_odometry_drift",
+    "plot_path",
     "plot_robot",
+    "plot_search",
     "plot_trajectories",
     "plot_wheel_commands",
 ]
