@@ -390,10 +390,15 @@ def theta_star_reference(costs: ArrayLike, start: Cell, goal: Cell, *,
 
 # ------------------------------------------------------------------ compiled versions
 #
-# The open list is a binary heap indexed by cell (decrease-key instead of stale entries), with
-# the same key order as the reference's heapq, so both pop the same cells. Work arrays live
-# in GridSearch and are reused between queries: ``mark[v] == 2·query`` means "open in this
-# query" (g and parent valid), ``2·query + 1`` "closed"; anything smaller, "not seen yet".
+# The compiled searches work on the grid padded with one blocked cell all round, in flat
+# indices ``p = (row + 1) · (width + 2) + col + 1`` (the same order as ``row · width + col``,
+# so ties break the same way), with each cell's traversability, move-cost factor
+# ``1 + cost_travel_multiplier · c / 252`` and Theta* cell term computed once per grid by the
+# very expressions the reference versions use. The open list is a binary heap indexed by cell
+# (decrease-key instead of stale entries) with the reference's key order, so both pop the same
+# cells. Work arrays live in GridSearch and are reused between queries: ``mark[p] == 2·query``
+# means "open in this query" (g and parent valid), ``2·query + 1`` "closed"; anything smaller,
+# "not seen yet".
 
 _DR = (1, -1, 0, 0, 1, 1, -1, -1)
 _DC = (0, 0, 1, -1, 1, -1, 1, -1)
@@ -450,37 +455,21 @@ def _pop(hf: Any, hh: Any, hn: Any, pos: Any, size: int) -> int:
 
 
 @njit(cache=True)
-def _push(hf: Any, hh: Any, hn: Any, pos: Any, size: int, is_open: bool, cell: int, f: float,
-          h: float) -> int:
-    """Insert ``cell`` or lower its key; returns the new size."""
-    if is_open:
-        _sift_up(hf, hh, hn, pos, pos[cell], f, h, cell)
-        return size
-    _sift_up(hf, hh, hn, pos, size, f, h, cell)
-    return size + 1
-
-
-@njit(cache=True)
-def _free(c: int, allow_unknown: bool) -> bool:
-    return c <= 252 or (allow_unknown and c == 255)
-
-
-@njit(cache=True)
-def _astar_compiled(costs: Any, start: int, goal: int, moves: int, corner_cutting: bool,
-                    multiplier: float, allow_unknown: bool, heuristic: int, work: Any,
+def _astar_compiled(free: Any, factor: Any, uniform: bool, stride: int, start: int, goal: int,
+                    moves: int, corner_cutting: bool, heuristic: int, work: Any,
                     query: int) -> tuple[bool, int]:
-    """A* (``heuristic`` 1 octile, 2 Manhattan) or Dijkstra (``heuristic`` 0); returns
-    ``(found, number of cells expanded)``; the expansion order is in ``work[5]``."""
+    """A* (``heuristic`` 1 octile, 2 Manhattan) or Dijkstra (``heuristic`` 0) on the padded
+    grid; returns ``(found, number of cells expanded)``, the expansion order in ``work[5]``.
+    ``uniform``: every factor is 1 (skip reading them)."""
     mark, parent, hn, pos, order = work[0], work[1], work[2], work[3], work[5]
     g, hf, hh = work[6], work[7], work[8]
-    height, width = costs.shape
-    flat = costs.ravel()
     is_open, is_closed = 2 * query, 2 * query + 1
-    goal_row, goal_col = goal // width, goal % width
+    goal_row, goal_col = goal // stride, goal % stride
     g[start] = 0.0
     parent[start] = start
     mark[start] = is_open
-    size = _push(hf, hh, hn, pos, 0, False, start, 0.0, 0.0)
+    _sift_up(hf, hh, hn, pos, 0, 0.0, 0.0, start)
+    size = 1
     expanded = 0
     while size > 0:
         u = _pop(hf, hh, hn, pos, size)
@@ -490,44 +479,48 @@ def _astar_compiled(costs: Any, start: int, goal: int, moves: int, corner_cuttin
         expanded += 1
         if u == goal:
             return True, expanded
-        row, col = u // width, u % width
+        row, col = u // stride, u % stride
+        g_u = g[u]
         for k in range(moves):
-            r, c = row + _DR[k], col + _DC[k]
-            if r < 0 or c < 0 or r >= height or c >= width:
+            v = u + _DR[k] * stride + _DC[k]
+            if not free[v]:
                 continue
-            v = r * width + c
-            if mark[v] == is_closed or not _free(flat[v], allow_unknown):
+            state = mark[v]
+            if state == is_closed:
                 continue
             step = 1.0
             if k >= 4:
-                if not corner_cutting and not (_free(flat[r * width + col], allow_unknown)
-                                               and _free(flat[row * width + c], allow_unknown)):
+                if not corner_cutting and not (free[v - _DC[k]] and free[u + _DC[k]]):
                     continue
                 step = SQRT2
-            cv = 252 if flat[v] == 255 else flat[v]
-            new_g = g[u] + step * (1.0 + multiplier * (cv / 252.0))
-            seen = mark[v] == is_open
-            if seen and new_g >= g[v]:
-                continue
+            new_g = g_u + step if uniform else g_u + step * factor[v]
+            seen = state == is_open
+            if seen:
+                if new_g >= g[v]:
+                    continue
+                i = pos[v]
+                h = hh[i]                      # the same cell, the same heuristic
+            else:
+                i = size
+                size += 1
+                h = 0.0
+                if heuristic != 0:
+                    d_row, d_col = abs(row + _DR[k] - goal_row), abs(col + _DC[k] - goal_col)
+                    if heuristic == 1:
+                        h = (max(d_row, d_col) - min(d_row, d_col)) + SQRT2 * min(d_row, d_col)
+                    else:
+                        h = float(d_row + d_col)
+                mark[v] = is_open
             g[v] = new_g
             parent[v] = u
-            h = 0.0
-            if heuristic != 0:
-                d_row, d_col = abs(r - goal_row), abs(c - goal_col)
-                if heuristic == 1:
-                    h = (max(d_row, d_col) - min(d_row, d_col)) + SQRT2 * min(d_row, d_col)
-                else:
-                    h = float(d_row + d_col)
-            mark[v] = is_open
-            size = _push(hf, hh, hn, pos, size, seen, v, new_g + h, h)
+            _sift_up(hf, hh, hn, pos, i, new_g + h, h, v)
     return False, expanded
 
 
 @njit(cache=True)
-def _walk_compiled(flat: Any, width: int, a: int, b: int,
-                   allow_unknown: bool) -> tuple[bool, float]:
-    """Compiled :func:`_walk_line` on flat cell indices."""
-    row, col, row1, col1 = a // width, a % width, b // width, b % width
+def _walk_compiled(free: Any, term: Any, stride: int, a: int, b: int) -> tuple[bool, float]:
+    """Compiled :func:`_walk_line` on padded flat indices."""
+    row, col, row1, col1 = a // stride, a % stride, b // stride, b % stride
     d_row, d_col = abs(row1 - row), abs(col1 - col)
     s_row = 1 if row1 > row else -1
     s_col = 1 if col1 > col else -1
@@ -536,9 +529,8 @@ def _walk_compiled(flat: Any, width: int, a: int, b: int,
     while row != row1 or col != col1:
         e2 = 2 * err
         step_col, step_row = e2 > -d_row, e2 < d_col
-        if step_col and step_row and not (
-                _free(flat[(row + s_row) * width + col], allow_unknown)
-                and _free(flat[row * width + col + s_col], allow_unknown)):
+        if step_col and step_row and not (free[(row + s_row) * stride + col]
+                                          and free[row * stride + col + s_col]):
             return False, total
         if step_col:
             err -= d_row
@@ -546,30 +538,28 @@ def _walk_compiled(flat: Any, width: int, a: int, b: int,
         if step_row:
             err += d_col
             row += s_row
-        c = flat[row * width + col]
-        if not _free(c, allow_unknown):
+        p = row * stride + col
+        if not free[p]:
             return False, total
-        v = 26.0 + 0.9 * float(252 if c == 255 else c)
-        total += v * v / 63504.0
+        total += term[p]
     return True, total
 
 
 @njit(cache=True)
-def _theta_star_compiled(costs: Any, start: int, goal: int, moves: int, w_euc: float,
-                         w_traversal: float, allow_unknown: bool, work: Any,
+def _theta_star_compiled(free: Any, term: Any, stride: int, start: int, goal: int, moves: int,
+                         w_euc: float, w_traversal: float, work: Any,
                          query: int) -> tuple[bool, int]:
-    """Theta* as :func:`theta_star_reference`; returns ``(found, expanded)``."""
+    """Theta* as :func:`theta_star_reference` on the padded grid; ``(found, expanded)``."""
     mark, parent, hn, pos, order = work[0], work[1], work[2], work[3], work[5]
     g, hf, hh = work[6], work[7], work[8]
-    height, width = costs.shape
-    flat = costs.ravel()
     is_open, is_closed = 2 * query, 2 * query + 1
-    goal_row, goal_col = goal // width, goal % width
+    goal_row, goal_col = goal // stride, goal % stride
     w_h = min(w_euc, 1.0)
     g[start] = 0.0
     parent[start] = start
     mark[start] = is_open
-    size = _push(hf, hh, hn, pos, 0, False, start, 0.0, 0.0)
+    _sift_up(hf, hh, hn, pos, 0, 0.0, 0.0, start)
+    size = 1
     expanded = 0
     while size > 0:
         u = _pop(hf, hh, hn, pos, size)
@@ -579,34 +569,31 @@ def _theta_star_compiled(costs: Any, start: int, goal: int, moves: int, w_euc: f
         expanded += 1
         if u == goal:
             return True, expanded
-        row, col = u // width, u % width
         for k in range(moves):
-            r, c = row + _DR[k], col + _DC[k]
-            if r < 0 or c < 0 or r >= height or c >= width:
+            v = u + _DR[k] * stride + _DC[k]
+            if mark[v] == is_closed or not free[v]:
                 continue
-            v = r * width + c
-            if mark[v] == is_closed or not _free(flat[v], allow_unknown):
-                continue
-            if k >= 4 and not (_free(flat[r * width + col], allow_unknown)
-                               and _free(flat[row * width + c], allow_unknown)):
+            if k >= 4 and not (free[v - _DC[k]] and free[u + _DC[k]]):
                 continue
             via = parent[u]
-            visible, along = _walk_compiled(flat, width, via, v, allow_unknown)
+            visible, along = _walk_compiled(free, term, stride, via, v)
             if not visible:
                 via = u
-                cv = 26.0 + 0.9 * float(252 if flat[v] == 255 else flat[v])
-                along = cv * cv / 63504.0
-            via_row, via_col = via // width, via % width
-            new_g = (g[via] + w_euc * np.sqrt(float((r - via_row) ** 2 + (c - via_col) ** 2))
+                along = term[v]
+            d_row, d_col = v // stride - via // stride, v % stride - via % stride
+            new_g = (g[via] + w_euc * np.sqrt(float(d_row * d_row + d_col * d_col))
                      + w_traversal * along)
             seen = mark[v] == is_open
             if seen and new_g >= g[v]:
                 continue
             g[v] = new_g
             parent[v] = via
-            h = w_h * np.sqrt(float((r - goal_row) ** 2 + (c - goal_col) ** 2))
+            d_row, d_col = v // stride - goal_row, v % stride - goal_col
+            h = w_h * np.sqrt(float(d_row * d_row + d_col * d_col))
             mark[v] = is_open
-            size = _push(hf, hh, hn, pos, size, seen, v, new_g + h, h)
+            _sift_up(hf, hh, hn, pos, pos[v] if seen else size, new_g + h, h, v)
+            if not seen:
+                size += 1
     return False, expanded
 
 
@@ -657,13 +644,28 @@ class GridSearch:
         self.corner_cutting = bool(corner_cutting)
         self.cost_travel_multiplier = float(cost_travel_multiplier)
         self.allow_unknown = bool(allow_unknown)
-        n = self.costs.size
+        height, width = self.costs.shape
+        self._stride = width + 2
+        c = self.costs.astype(np.float64)
+        c[self.costs == NO_INFORMATION] = MAX_NON_OBSTACLE
+        ok = (self.costs <= MAX_NON_OBSTACLE) | (allow_unknown & (self.costs == NO_INFORMATION))
+        self._free = np.pad(ok, 1).ravel()
+        self._factor = np.pad(1.0 + self.cost_travel_multiplier * (c / 252.0), 1).ravel()
+        self._uniform = bool(np.all(self._factor[self._free] == 1.0))
+        v = 26.0 + 0.9 * c                      # Theta*'s term, as _segment_cost computes it
+        self._term = np.pad(v * v / 63504.0, 1).ravel()
+        n = (height + 2) * (width + 2)
         # mark, parent, heap cells, heap positions, path, expansion order; g, f, h
-        ints = [np.zeros(n, np.int32) for _ in range(6)]
-        floats = [np.zeros(n, np.float64) for _ in range(3)]
-        self._ints = tuple(ints)
-        self._floats = tuple(floats)
+        self._ints = tuple(np.zeros(n, np.int32) for _ in range(6))
+        self._floats = tuple(np.zeros(n, np.float64) for _ in range(3))
         self._query = 0
+
+    def _index(self, cell: Cell) -> int:
+        return (cell[0] + 1) * self._stride + cell[1] + 1
+
+    def _cells(self, flat: NDArray[np.int32]) -> IntArray:
+        p = flat.astype(np.int64)
+        return np.column_stack([p // self._stride - 1, p % self._stride - 1])
 
     def _begin(self, start: object, goal: object) -> tuple[Cell, Cell]:
         s = _check_cell(self.costs, start, "start", self.allow_unknown)
@@ -675,28 +677,25 @@ class GridSearch:
         return s, t
 
     def _finish(self, start: Cell, goal: Cell, found: bool, expanded: int) -> SearchResult:
-        width = self.costs.shape[1]
         _, parent, _, _, path, order = self._ints
-        cells = order[:expanded].astype(np.int64)
-        order_rc = np.column_stack([cells // width, cells % width])
+        order_rc = self._cells(order[:expanded])
         if not found:
             return SearchResult(np.zeros((0, 2), np.int64), math.inf, math.inf, order_rc,
                                 _no_path(start, goal, expanded))
-        s, t = start[0] * width + start[1], goal[0] * width + goal[1]
-        n = _trace(parent, s, t, path)
-        flat = path[:n][::-1].astype(np.int64)
-        rc = np.column_stack([flat // width, flat % width])
+        t = self._index(goal)
+        n = _trace(parent, self._index(start), t, path)
+        rc = self._cells(path[:n][::-1])
         steps = np.diff(rc, axis=0)
         length = float(np.sqrt((steps * steps).sum(axis=1)).sum())
         return SearchResult(rc, float(self._floats[0][t]), length, order_rc, "")
 
     def _run_astar(self, start: object, goal: object, heuristic: int) -> SearchResult:
         s, t = self._begin(start, goal)
-        width = self.costs.shape[1]
         found, expanded = _astar_compiled(
-            self.costs, s[0] * width + s[1], t[0] * width + t[1], self.connectivity,
-            self.corner_cutting, self.cost_travel_multiplier, self.allow_unknown, heuristic,
-            self._ints + self._floats, self._query)
+            self._free, self._factor, self._uniform, self._stride, self._index(s),
+            self._index(t), self.connectivity, self.corner_cutting, heuristic,
+            self._ints + self._floats,
+            self._query)
         return self._finish(s, t, found, expanded)
 
     def astar(self, start: Cell, goal: Cell) -> SearchResult:
@@ -714,10 +713,9 @@ class GridSearch:
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a non-negative number; got {value!r}")
         s, t = self._begin(start, goal)
-        width = self.costs.shape[1]
         found, expanded = _theta_star_compiled(
-            self.costs, s[0] * width + s[1], t[0] * width + t[1], self.connectivity,
-            float(w_euc_cost), float(w_traversal_cost), self.allow_unknown,
+            self._free, self._term, self._stride, self._index(s), self._index(t),
+            self.connectivity, float(w_euc_cost), float(w_traversal_cost),
             self._ints + self._floats, self._query)
         return self._finish(s, t, found, expanded)
 
