@@ -21,7 +21,10 @@ Conventions:
   order, in both versions.
 * Theta* (Nash, Daniel, Koenig & Felner 2007) in Nav2's cost model: a segment from ``a`` to
   ``b`` costs ``w_euc_cost · |ab| + w_traversal_cost · Σ ((26 + 0.9 c) / 252)²`` over the
-  cells the segment enters; a cell's parent may be any cell in its line of sight.
+  cells the segment enters. Reaching a neighbour of the cell being expanded, the straight
+  segment from that cell's parent (if in line of sight) is taken unless the step through the
+  cell itself is cheaper — as Nav2 does; plain Theta* always takes the segment, which with
+  traversal costs can be the dearer one.
 
 Start or goal off the grid or untraversable raises :class:`PlanningError` (a ``ValueError``
 carrying Nav2's ``ComputePathToPose`` error code); a goal that cannot be reached is a result
@@ -369,12 +372,15 @@ def theta_star_reference(costs: ArrayLike, start: Cell, goal: Cell, *,
                 continue
             if not diagonal_allowed(c, cell, move, False, allow_unknown):
                 continue
-            via = parent[cell]             # path 2: straight from the grandparent if visible
-            visible, along = _walk_line(c, via, nxt, allow_unknown)
-            if not visible:
-                via = cell                 # path 1: through the cell being expanded
-                along = _segment_cost(int(c[nxt]))
-            new_g = (g[via] + w_euc_cost * _distance(via, nxt) + w_traversal_cost * along)
+            via = cell                     # path 1: through the cell being expanded
+            new_g = (g[cell] + w_euc_cost * _distance(cell, nxt)
+                     + w_traversal_cost * _segment_cost(int(c[nxt])))
+            grand = parent[cell]           # path 2: straight from its parent, if visible
+            if grand != cell:
+                visible, along = _walk_line(c, grand, nxt, allow_unknown)
+                straight = g[grand] + w_euc_cost * _distance(grand, nxt) + w_traversal_cost * along
+                if visible and straight <= new_g:
+                    via, new_g = grand, straight
             if new_g < g.get(nxt, math.inf):
                 g[nxt] = new_g
                 parent[nxt] = via
@@ -575,14 +581,18 @@ def _theta_star_compiled(free: Any, term: Any, stride: int, start: int, goal: in
                 continue
             if k >= 4 and not (free[v - _DC[k]] and free[u + _DC[k]]):
                 continue
-            via = parent[u]
-            visible, along = _walk_compiled(free, term, stride, via, v)
-            if not visible:
-                via = u
-                along = term[v]
-            d_row, d_col = v // stride - via // stride, v % stride - via % stride
-            new_g = (g[via] + w_euc * np.sqrt(float(d_row * d_row + d_col * d_col))
-                     + w_traversal * along)
+            via = u
+            d_row, d_col = v // stride - u // stride, v % stride - u % stride
+            new_g = (g[u] + w_euc * np.sqrt(float(d_row * d_row + d_col * d_col))
+                     + w_traversal * term[v])
+            grand = parent[u]
+            if grand != u:
+                visible, along = _walk_compiled(free, term, stride, grand, v)
+                d_row, d_col = v // stride - grand // stride, v % stride - grand % stride
+                straight = (g[grand] + w_euc * np.sqrt(float(d_row * d_row + d_col * d_col))
+                            + w_traversal * along)
+                if visible and straight <= new_g:
+                    via, new_g = grand, straight
             seen = mark[v] == is_open
             if seen and new_g >= g[v]:
                 continue
