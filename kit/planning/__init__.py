@@ -38,6 +38,7 @@ from kit.planning._costmap import (
     static_layer,
     world_to_cell,
 )
+from kit.planning._gridsearch import GridSearch, astar, dijkstra, theta_star
 from kit.planning._layered import (
     CostmapParams,
     InflationLayerParams,
@@ -72,18 +73,14 @@ from kit.planning._search import (
     NO_VALID_PATH,
     START_OCCUPIED,
     START_OUTSIDE_MAP,
-    GridSearch,
     PlanningError,
     SearchResult,
-    astar,
     astar_reference,
     diagonal_allowed,
-    dijkstra,
     dijkstra_reference,
     line_of_sight,
     manhattan_distance,
     octile_distance,
-    theta_star,
     theta_star_reference,
     traversable,
     traversal_cost,

@@ -17,8 +17,8 @@ import statistics
 import time
 from typing import Any
 
+from kit.planning._gridsearch import GridSearch
 from kit.planning._movingai import read_grid_map, read_scenarios
-from kit.planning._search import GridSearch
 
 __all__ = ["register"]
 

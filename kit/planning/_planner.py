@@ -27,13 +27,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry, msgs
 from kit.planning._costmap import Costmap
+from kit.planning._gridsearch import GridSearch
 from kit.planning._search import (
     GOAL_OCCUPIED,
     GOAL_OUTSIDE_MAP,
     NO_VALID_PATH,
     START_OCCUPIED,
     START_OUTSIDE_MAP,
-    GridSearch,
     PlanningError,
     SearchResult,
     traversable,
