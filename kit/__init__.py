@@ -13,6 +13,7 @@ pymunk):
 * :mod:`kit.maps`       occupancy grids in the ROS map_server format (YAML + PGM)
 * :mod:`kit.control`    DC motor model, discrete PID, cascade, step figures, tuning
 * :mod:`kit.estimation` the EKF and a robot_localization-style fusion filter
+* :mod:`kit.planning`   Nav2-style costmaps, Dijkstra/A*/Theta*, smoothing, Moving AI maps
 * :mod:`kit.viz`        plotting (matplotlib, imported lazily)
 """
 
