@@ -72,7 +72,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--scen", required=True, help="its .map.scen scenario file")
     p.add_argument("--out", required=True, help="the CSV file to write")
     p.add_argument("--corner-cutting", action="store_true",
-                   help="allow diagonal moves past blocked corners (the benchmark forbids them)")
+                   help="allow diagonal moves past blocked corners (the benchmark forbids them; "
+                        "A* and Dijkstra only)")
     p.add_argument("--algorithm", choices=("astar", "dijkstra", "theta_star"), default="astar",
                    help="the search (default: astar)")
     p.set_defaults(func=_plan)
