@@ -1,6 +1,12 @@
-"""Costmaps, paths and searches (Lab 09)."""
+"""Costmaps, paths and searches (Lab 09).
+
+``kit.planning`` (and with it numba) is imported only when a plot needs it, so that importing
+``kit.viz`` stays quick for the labs that do not plan.
+"""
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -8,8 +14,10 @@ from matplotlib.colors import ListedColormap
 from numpy.typing import ArrayLike, NDArray
 
 from kit import msgs
-from kit.planning import Costmap, SearchResult, path_to_points
 from kit.viz._base import axes as _axes
+
+if TYPE_CHECKING:
+    from kit.planning import Costmap, SearchResult
 
 __all__ = ["costmap_colors", "plot_costmap", "plot_path", "plot_search"]
 
@@ -37,6 +45,8 @@ def plot_costmap(costmap: Costmap | ArrayLike, ax: Axes | None = None,
                  colorbar: bool = False) -> Axes:
     """A costmap in its frame (metres, row 0 at the bottom), or a bare ``(H, W)`` array of
     costs in cells with row 0 at the top (a Moving AI grid), in :func:`costmap_colors`."""
+    from kit.planning import Costmap
+
     ax = _axes(ax, equal=True)
     if isinstance(costmap, Costmap):
         image = ax.imshow(costmap.costs, origin="lower", extent=_extent(costmap),
@@ -57,6 +67,8 @@ def plot_path(path: msgs.Path | ArrayLike, ax: Axes | None = None, label: str | 
               color: str = "tab:blue", markers: bool = False) -> Axes:
     """A path (``nav_msgs/Path`` or ``(N, 2)`` points [m]) as a line from start (circle) to
     goal (star)."""
+    from kit.planning import path_to_points
+
     ax = _axes(ax, equal=True)
     points = path_to_points(path) if isinstance(path, msgs.Path) else np.asarray(path, float)
     if len(points) == 0:
@@ -81,6 +93,8 @@ def plot_search(result: SearchResult, costmap: Costmap | ArrayLike, ax: Axes | N
                 label: str | None = None) -> Axes:
     """A search on its grid: the costs, the expanded cells coloured by the order they were
     expanded (dark first), and the path found. ``costmap`` as in :func:`plot_costmap`."""
+    from kit.planning import Costmap
+
     ax = plot_costmap(costmap, ax)
     grid = costmap if isinstance(costmap, Costmap) else None
     if result.expanded:

@@ -35,3 +35,13 @@ def test_plot_path_and_plot_search_draw_the_path_and_the_expansions():
     np.testing.assert_array_equal(line[:, ::-1], search.cells)      # (x, y) = (col, row)
     assert ax.get_title().startswith(f"A*: {search.expanded} cells expanded")
     plt.close("all")
+
+
+def test_importing_kit_viz_does_not_load_the_planners():
+    import subprocess
+    import sys
+
+    code = "import sys, kit.viz; print('numba' in sys.modules, 'kit.planning' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.split() == ["False", "False"]
