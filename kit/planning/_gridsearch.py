@@ -318,16 +318,17 @@ class GridSearch:
 
     def _finish(self, start: Cell, goal: Cell, found: bool, expanded: int) -> SearchResult:
         _, parent, _, _, path, order = self._ints
-        order_rc = self._cells(order[:expanded])
+        expanded_order = order[:expanded].copy()
         if not found:
-            return SearchResult(np.zeros((0, 2), np.int64), math.inf, math.inf, order_rc,
-                                _no_path(start, goal, expanded))
+            return SearchResult(np.zeros((0, 2), np.int64), math.inf, math.inf,
+                                _no_path(start, goal, expanded), expanded_order, self._stride, 1)
         t = self._index(goal)
         n = _trace(parent, self._index(start), t, path)
         rc = self._cells(path[:n][::-1])
         steps = np.diff(rc, axis=0)
         length = float(np.sqrt((steps * steps).sum(axis=1)).sum())
-        return SearchResult(rc, float(self._floats[0][t]), length, order_rc, "")
+        return SearchResult(rc, float(self._floats[0][t]), length, "", expanded_order,
+                            self._stride, 1)
 
     def _run_astar(self, start: object, goal: object, heuristic: int) -> SearchResult:
         s, t = self._begin(start, goal)

@@ -36,7 +36,8 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -94,15 +95,18 @@ class SearchResult:
 
     ``cells`` ``(N, 2)`` the path's ``(row, col)`` from start to goal (``(0, 2)`` when there
     is none); ``cost`` its cost (``inf`` when none); ``length`` its length in cells (the sum
-    of its segments); ``expanded_cells`` ``(K, 2)`` the cells taken off the open list, in
-    order; ``reason`` empty when a path was found.
+    of its segments); ``reason`` empty when a path was found; :attr:`expanded_cells` the cells
+    taken off the open list, in order. (``order`` holds them as flat indices
+    ``(row + padding) · stride + col + padding``, decoded only when asked for.)
     """
 
     cells: IntArray
     cost: float
     length: float
-    expanded_cells: IntArray
-    reason: str = ""
+    reason: str
+    order: NDArray[np.integer] = field(repr=False)
+    stride: int = field(repr=False)
+    padding: int = field(default=0, repr=False)
 
     @property
     def found(self) -> bool:
@@ -111,7 +115,14 @@ class SearchResult:
     @property
     def expanded(self) -> int:
         """Number of cells expanded."""
-        return len(self.expanded_cells)
+        return len(self.order)
+
+    @cached_property
+    def expanded_cells(self) -> IntArray:
+        """``(K, 2)`` the expanded cells' ``(row, col)``, in the order they were expanded."""
+        flat = self.order.astype(np.int64)
+        return np.column_stack([flat // self.stride - self.padding,
+                                flat % self.stride - self.padding])
 
 
 # ------------------------------------------------------------------ the pieces
@@ -251,12 +262,13 @@ def _connectivity(connectivity: int) -> tuple[tuple[int, int], ...]:
     return MOVES_8 if connectivity == 8 else MOVES_4
 
 
-def _result(cells: list[Cell], cost: float, order: list[Cell], reason: str) -> SearchResult:
+def _result(cells: list[Cell], cost: float, order: list[Cell], width: int,
+            reason: str) -> SearchResult:
     path = np.array(cells, dtype=np.int64).reshape(-1, 2)
     steps = np.diff(path, axis=0)
     length = float(np.sqrt((steps * steps).sum(axis=1)).sum()) if len(path) else math.inf
-    return SearchResult(path, cost, length, np.array(order, dtype=np.int64).reshape(-1, 2),
-                        reason)
+    flat = np.array([r * width + c for r, c in order], dtype=np.int64)
+    return SearchResult(path, cost, length, reason, flat, width)
 
 
 def _no_path(start: Cell, goal: Cell, expanded: int) -> str:
@@ -313,11 +325,11 @@ def astar_reference(costs: ArrayLike, start: Cell, goal: Cell, *, connectivity: 
                 h = heuristic(nxt, goal)
                 heapq.heappush(open_list, (new_g + h, h, nxt[0] * width + nxt[1]))
     if goal not in closed:
-        return _result([], math.inf, order, _no_path(start, goal, len(order)))
+        return _result([], math.inf, order, width, _no_path(start, goal, len(order)))
     path = [goal]
     while path[-1] != start:
         path.append(parent[path[-1]])
-    return _result(path[::-1], g[goal], order, "")
+    return _result(path[::-1], g[goal], order, width, "")
 
 
 def dijkstra_reference(costs: ArrayLike, start: Cell, goal: Cell, *, connectivity: int = 8,
@@ -381,8 +393,8 @@ def theta_star_reference(costs: ArrayLike, start: Cell, goal: Cell, *,
                 h = w_h * _distance(nxt, goal)
                 heapq.heappush(open_list, (new_g + h, h, nxt[0] * width + nxt[1]))
     if goal not in closed:
-        return _result([], math.inf, order, _no_path(start, goal, len(order)))
+        return _result([], math.inf, order, width, _no_path(start, goal, len(order)))
     path = [goal]
     while path[-1] != start:
         path.append(parent[path[-1]])
-    return _result(path[::-1], g[goal], order, "")
+    return _result(path[::-1], g[goal], order, width, "")
