@@ -290,10 +290,11 @@ class GridSearch:
         c[self.costs == NO_INFORMATION] = MAX_NON_OBSTACLE
         ok = (self.costs <= MAX_NON_OBSTACLE) | (allow_unknown & (self.costs == NO_INFORMATION))
         self._free = np.pad(ok, 1).ravel()
-        self._factor = np.pad(1.0 + self.cost_travel_multiplier * (c / 252.0), 1).ravel()
-        self._uniform = bool(np.all(self._factor[self._free] == 1.0))
-        v = 26.0 + 0.9 * c                      # Theta*'s term, as _segment_cost computes it
-        self._term = np.pad(v * v / 63504.0, 1).ravel()
+        factor = 1.0 + self.cost_travel_multiplier * (c / 252.0)
+        self._uniform = bool(np.all(factor[ok] == 1.0))
+        # a uniform grid never reads its factors: keep one, not one per cell
+        self._factor = np.ones(1) if self._uniform else np.pad(factor, 1).ravel()
+        self._term: NDArray[np.float64] | None = None     # Theta*'s, made on its first query
         n = (height + 2) * (width + 2)
         # mark, parent, heap cells, heap positions, path, expansion order; g, f, h
         self._ints = tuple(np.zeros(n, np.int32) for _ in range(6))
@@ -354,6 +355,11 @@ class GridSearch:
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a non-negative number; got {value!r}")
         s, t = self._begin(start, goal)
+        if self._term is None:
+            c = self.costs.astype(np.float64)
+            c[self.costs == NO_INFORMATION] = MAX_NON_OBSTACLE
+            v = 26.0 + 0.9 * c                  # Theta*'s term, as _segment_cost computes it
+            self._term = np.pad(v * v / 63504.0, 1).ravel()
         found, expanded = _theta_star_compiled(
             self._free, self._term, self._stride, self._index(s), self._index(t),
             self.connectivity, float(w_euc_cost), float(w_traversal_cost),
