@@ -15,6 +15,7 @@ pymunk):
 * :mod:`kit.drivers`    the devices' serial drivers, reader threads, ``kit record``/``probe``
 * :mod:`kit.control`    DC motor model, discrete PID, cascade, step figures, tuning
 * :mod:`kit.estimation` the EKF and a robot_localization-style fusion filter
+* :mod:`kit.planning`   Nav2-style costmaps, Dijkstra/A*/Theta*, smoothing, Moving AI maps
 * :mod:`kit.viz`        plotting (matplotlib, imported lazily)
 """
 

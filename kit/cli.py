@@ -68,7 +68,7 @@ def _wheels(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMAND_MODULES: tuple[str, ...] = ("kit.drivers._cli",)
+COMMAND_MODULES: tuple[str, ...] = ("kit.drivers._cli", "kit.planning._cli")
 """Modules with a ``register(subparsers)`` that adds their subcommands."""
 
 

@@ -44,6 +44,9 @@ def _pgm_tokens(data: bytes, count: int, path: Path) -> tuple[list[int], int]:
         start = i
         while i < len(data) and data[i:i + 1].isdigit():
             i += 1
+        if start == i and i >= len(data):
+            raise MapError(f"{path}: truncated PGM header: {len(values)} of the {count} numbers "
+                           f"(width, height, maxval)")
         if start == i:
             raise MapError(f"{path}: malformed PGM header")
         values.append(int(data[start:i]))
@@ -57,6 +60,8 @@ def read_pgm(path: Path) -> NDArray[np.uint8]:
     if magic not in (b"P5", b"P2"):
         raise MapError(f"{path}: not a PGM image (starts with {magic!r})")
     (width, height, maxval), offset = _pgm_tokens(data, 3, path)
+    if width == 0 or height == 0:
+        raise MapError(f"{path}: the image has no pixels ({width} x {height})")
     if not 0 < maxval < 65536:
         raise MapError(f"{path}: bad PGM maxval {maxval}")
     if magic == b"P5":
@@ -121,11 +126,15 @@ def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
     image_path = yaml_path.parent / str(meta["image"])
     if not image_path.is_file():
         raise MapError(f"{yaml_path}: its image {image_path} does not exist")
-    resolution = float(meta["resolution"])
-    origin = [float(v) for v in meta["origin"]]
-    occupied = float(meta.get("occupied_thresh", 0.65))
-    free = float(meta.get("free_thresh", 0.196))
-    negate = int(meta.get("negate", 0))
+    try:
+        resolution = float(meta["resolution"])
+        origin = [float(v) for v in meta["origin"]]
+        occupied = float(meta.get("occupied_thresh", 0.65))
+        free = float(meta.get("free_thresh", 0.196))
+        negate = int(meta.get("negate", 0))
+    except (TypeError, ValueError):
+        raise MapError(f"{yaml_path}: resolution, occupied_thresh and free_thresh must be "
+                       f"numbers, origin a list [x, y, yaw], negate 0 or 1") from None
     mode = str(meta.get("mode", "trinary"))
     if not (resolution > 0 and len(origin) == 3 and all(map(math.isfinite, origin))):
         raise MapError(f"{yaml_path}: resolution must be positive and origin [x, y, yaw]")

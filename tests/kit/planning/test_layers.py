@@ -1,0 +1,266 @@
+"""The obstacle layer (marking and ray-trace clearing from scans), the layered costmap's
+combination of layers, and Nav2 parameter files read as they are."""
+
+import math
+
+import numpy as np
+import pytest
+
+from kit import maps, msgs
+from kit.planning import (
+    LETHAL_OBSTACLE,
+    NO_INFORMATION,
+    CostmapParams,
+    InflationLayerParams,
+    KeepoutFilterParams,
+    LayeredCostmap,
+    ObservationSource,
+    ObstacleLayer,
+    ObstacleLayerParams,
+    StaticLayerParams,
+    costmap_from_map,
+    inflate,
+    load_costmap_params,
+    raytrace_line,
+    robot_footprint,
+    static_layer,
+)
+
+RES = 0.05
+WALL_X = 3.02          # a wall across the room, seen from a scanner at (1, 1)
+
+
+def wall_scan(n=181, range_max=5.0):
+    """A 180° scan from (1, 1) facing +x: the wall x = WALL_X where a beam meets it within
+    range_max, +inf (nothing seen, REP-117) elsewhere."""
+    angles = np.linspace(-math.pi / 2, math.pi / 2, n)
+    with np.errstate(divide="ignore"):
+        r = (WALL_X - 1.0) / np.cos(angles)
+    r = np.where((np.cos(angles) > 1e-9) & (r <= range_max), r, np.inf)
+    return msgs.LaserScan(msgs.Header(frame_id="laser_link"), angle_min=-math.pi / 2,
+                          angle_max=math.pi / 2, angle_increment=math.pi / (n - 1),
+                          range_min=0.1, range_max=range_max, ranges=r.astype(np.float32))
+
+
+def test_marking_puts_returns_within_obstacle_max_range_on_the_wall():
+    layer = ObstacleLayer((80, 100), RES, (0.0, 0.0), track_unknown_space=True)
+    scan = wall_scan()
+    traced, marked = layer.update(scan, (1.0, 1.0, 0.0), (ObservationSource(marking=True),))
+    assert traced == 0
+    rows, cols = np.nonzero(layer.costs == LETHAL_OBSTACLE)
+    assert set(cols) == {int(WALL_X / RES)}
+    # beams up to acos(2.02 / 2.5) off axis are within obstacle_max_range = 2.5 m
+    reach = math.sqrt(2.5 ** 2 - (WALL_X - 1.0) ** 2)
+    y = (rows + 0.5) * RES
+    assert y.min() > 1.0 - reach - RES and y.max() < 1.0 + reach + RES
+    assert marked >= len(rows)
+    assert (layer.costs[layer.costs != LETHAL_OBSTACLE] == NO_INFORMATION).all()
+
+
+def test_clearing_frees_the_cells_a_beam_passed_and_stops_at_raytrace_max_range():
+    layer = ObstacleLayer((80, 100), RES, (0.0, 0.0), track_unknown_space=True)
+    layer.costs[20, 30] = LETHAL_OBSTACLE            # an old obstacle on the axis, now gone
+    source = ObservationSource(clearing=True, marking=True)
+    layer.update(wall_scan(), (1.0, 1.0, 0.0), (source,))
+    axis = layer.costs[20]                           # the beam straight ahead (y = 1.0)
+    assert (axis[20:60] == 0).all() and axis[60] == LETHAL_OBSTACLE
+    assert axis[61] == NO_INFORMATION                # nothing seen behind the wall
+    # beams longer than range_max are +inf: they clear nothing without inf_is_valid
+    assert (layer.costs[25:, 20] == NO_INFORMATION).all()      # straight up from the laser
+    infinite = ObstacleLayer((80, 100), RES, (0.0, 0.0), track_unknown_space=True)
+    infinite.update(wall_scan(), (1.0, 1.0, 0.0),
+                    (ObservationSource(clearing=True, marking=False, inf_is_valid=True),))
+    up = infinite.costs[:, 20]                       # the beam straight up (+y), +inf
+    assert (up[20:20 + 61] == 0).all()               # raytrace_max_range: 3.0 m = 60 cells
+    assert (up[20 + 61:] == NO_INFORMATION).all()
+
+
+def test_raytrace_line_stays_within_half_a_cell_of_the_true_line():
+    rng = np.random.default_rng(2)
+    for _ in range(200):
+        a = tuple(int(v) for v in rng.integers(0, 40, 2))
+        b = tuple(int(v) for v in rng.integers(0, 40, 2))
+        cells = raytrace_line(a, b)
+        assert tuple(cells[0]) == a and tuple(cells[-1]) == b
+        steps = np.abs(np.diff(cells, axis=0))
+        assert (steps.max(axis=1) == 1).all() if len(cells) > 1 else True
+        (r0, c0), (r1, c1) = a, b
+        if abs(c1 - c0) >= abs(r1 - r0) and c1 != c0:   # x dominant: one cell per column
+            exact = r0 + (cells[:, 1] - c0) * (r1 - r0) / (c1 - c0)
+        elif r1 != r0:
+            exact = c0 + (cells[:, 0] - r0) * (c1 - c0) / (r1 - r0)
+            assert (np.abs(cells[:, 1] - exact) <= 0.5 + 1e-9).all()
+            continue
+        else:
+            continue
+        assert (np.abs(cells[:, 0] - exact) <= 0.5 + 1e-9).all()
+    assert len(raytrace_line((0, 0), (0, 30), max_length=10)) == 11
+    assert raytrace_line((0, 0), (0, 30), min_length=25)[0].tolist() == [0, 25]
+    assert len(raytrace_line((0, 0), (0, 3), min_length=5)) == 0
+
+
+def test_observation_sources_are_checked():
+    with pytest.raises(ValueError, match="reads LaserScan only"):
+        ObservationSource(data_type="PointCloud2")
+    with pytest.raises(ValueError, match="raytrace_max_range must be a non-negative"):
+        ObservationSource(raytrace_max_range=-1.0)
+
+
+def room_map(width=100, height=80):
+    """A walled room as a map_server map would give it (0 free, 100 walls), 0.05 m cells."""
+    values = np.zeros((height, width), np.int8)
+    values[0, :] = values[-1, :] = values[:, 0] = values[:, -1] = 100
+    info = msgs.MapMetaData(resolution=RES, width=width, height=height,
+                            origin=msgs.Pose(msgs.Point(0.0, 0.0, 0.0)))
+    return msgs.OccupancyGrid(msgs.Header(frame_id="map"), info, values.ravel())
+
+
+def test_layered_costmap_combines_static_obstacles_inflation_and_keepout():
+    grid = room_map()
+    params = CostmapParams(robot_radius=0.1, filters=(KeepoutFilterParams(),),
+                           layers=(StaticLayerParams(),
+                                   ObstacleLayerParams(observation_sources=(
+                                       ObservationSource(clearing=True),)),
+                                   InflationLayerParams(inflation_radius=0.3,
+                                                        cost_scaling_factor=5.0)))
+    layered = LayeredCostmap(params, grid)
+    first = layered.update()
+    static = static_layer(grid)
+    np.testing.assert_array_equal(first.costs, inflate(
+        static, RES, inscribed_radius=layered.inscribed_radius, inflation_radius=0.3,
+        cost_scaling_factor=5.0))
+    layered.update_scan(wall_scan(), (1.0, 1.0, 0.0))
+    second = layered.update()
+    assert second.costs[20, 60] == LETHAL_OBSTACLE and first.costs[20, 60] == 0
+    assert second.costs[20, 58] > 0                   # the new obstacle is inflated
+    mask = msgs.OccupancyGrid(grid.header, grid.info, np.where(
+        np.arange(grid.data.size) % 100 >= 80, 100, 0).astype(np.int8))
+    layered.set_keepout_mask(mask)
+    third = layered.update()
+    assert (third.costs[1:-1, 80:-1] == LETHAL_OBSTACLE).all()
+    assert third.costs[40, 79] == second.costs[40, 79]      # keep-out is not inflated
+    assert (third.frame_id, third.resolution, third.origin) == ("map", grid.info.resolution,
+                                                                (0.0, 0.0))
+
+
+def test_obstacle_layer_clears_under_the_footprint_and_combines_with_max():
+    layered = LayeredCostmap(CostmapParams(track_unknown_space=True), room_map(),
+                             footprint=robot_footprint("uiabot"))
+    layer = layered.obstacles["obstacle_layer"]
+    layer.costs[40, 50] = LETHAL_OBSTACLE                     # a ghost under the robot
+    assert layered.update().costs[40, 50] == LETHAL_OBSTACLE
+    costs = layered.update(robot_pose=(50 * RES + 0.02, 40 * RES + 0.02, 0.3)).costs
+    assert layer.costs[40, 50] == 0 and costs[40, 50] == 0
+
+
+def test_costmap_from_map_uses_nav2_defaults():
+    grid = room_map()
+    cm = costmap_from_map(grid)
+    inscribed = LayeredCostmap(None, grid).inscribed_radius
+    np.testing.assert_array_equal(cm.costs, inflate(static_layer(grid), RES,
+                                                    inscribed_radius=inscribed))
+
+
+NAV2_YAML = """\
+global_costmap:
+  global_costmap:
+    ros__parameters:
+      update_frequency: 1.0
+      global_frame: map
+      robot_base_frame: base_link
+      use_sim_time: True
+      robot_radius: 0.1
+      resolution: 0.05
+      track_unknown_space: true
+      plugins: ["static_layer", "obstacle_layer", "voxel_layer", "inflation_layer"]
+      filters: ["keepout_filter", "speed_filter"]
+      obstacle_layer:
+        plugin: "nav2_costmap_2d::ObstacleLayer"
+        enabled: True
+        observation_sources: scan
+        scan:
+          topic: /scan
+          max_obstacle_height: 2.0
+          clearing: True
+          marking: True
+          data_type: "LaserScan"
+          raytrace_max_range: 3.0
+          obstacle_max_range: 2.5
+      voxel_layer:
+        plugin: "nav2_costmap_2d::VoxelLayer"
+        enabled: True
+      static_layer:
+        plugin: "nav2_costmap_2d::StaticLayer"
+        map_subscribe_transient_local: True
+      inflation_layer:
+        plugin: "nav2_costmap_2d::InflationLayer"
+        cost_scaling_factor: 3.0
+        inflation_radius: 0.55
+      keepout_filter:
+        plugin: "nav2_costmap_2d::KeepoutFilter"
+        enabled: True
+        filter_info_topic: "keepout_costmap_filter_info"
+      speed_filter:
+        plugin: "nav2_costmap_2d::SpeedFilter"
+        enabled: True
+      always_send_full_costmap: True
+  global_costmap_client:
+    ros__parameters:
+      use_sim_time: False
+"""
+
+
+def test_a_nav2_parameter_file_loads_as_it_is(tmp_path):
+    (tmp_path / "nav2_params.yaml").write_text(NAV2_YAML)
+    p = load_costmap_params(tmp_path / "nav2_params.yaml")
+    assert (p.robot_radius, p.resolution, p.track_unknown_space) == (0.1, 0.05, True)
+    assert [type(layer).__name__ for layer in p.layers] == [
+        "StaticLayerParams", "ObstacleLayerParams", "InflationLayerParams"]
+    obstacle, inflation = p.layers[1], p.layers[2]
+    assert obstacle.observation_sources == (ObservationSource(
+        name="scan", topic="/scan", marking=True, clearing=True, raytrace_max_range=3.0,
+        obstacle_max_range=2.5),)
+    assert (inflation.inflation_radius, inflation.cost_scaling_factor) == (0.55, 3.0)
+    assert p.filters == (KeepoutFilterParams("keepout_filter", True),)
+    assert p.ignored == ("voxel_layer (nav2_costmap_2d::VoxelLayer)",
+                         "speed_filter (nav2_costmap_2d::SpeedFilter)")
+    assert p.footprint is None and p.robot_footprint().shape == (16, 2)
+
+
+def test_defaults_and_footprint_strings_follow_nav2(tmp_path):
+    p = load_costmap_params({"resolution": 0.1,
+                             "footprint": "[[0.2, 0.1], [-0.2, 0.1], [-0.2, -0.1], [0.2, -0.1]]"})
+    assert [layer.name for layer in p.layers] == ["static_layer", "obstacle_layer",
+                                                  "inflation_layer"]
+    assert p.layers[1].observation_sources == ()          # Nav2 declares none by default
+    assert p.layers[2].inflation_radius == 0.55 and p.layers[2].cost_scaling_factor == 10.0
+    np.testing.assert_allclose(p.robot_footprint()[0], [0.21, 0.11], atol=1e-7)
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("other:\n  ros__parameters:\n    a: 1\n", "no 'global_costmap' section"),
+    ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      track_unknown_space: "
+     "MAYBE\n", "track_unknown_space must be true or false; got 'MAYBE' .a launch-file"),
+    ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      resolution: fine\n",
+     "resolution must be a number"),
+    ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      footprint: '[[1, 2]]'\n",
+     "three or more"),
+    ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      plugins: static_layer\n",
+     "plugins must be a list"),
+    ("global_costmap: [unclosed\n", "not valid YAML"),
+])
+def test_bad_parameter_files_name_the_problem(tmp_path, text, message):
+    (tmp_path / "p.yaml").write_text(text)
+    with pytest.raises(ValueError, match=message):
+        load_costmap_params(tmp_path / "p.yaml")
+
+
+@pytest.mark.dataset
+def test_turtlebot3_world_costmap_with_its_own_parameters(shared_data, tmp_path):
+    (tmp_path / "nav2_params.yaml").write_text(NAV2_YAML)
+    params = load_costmap_params(tmp_path / "nav2_params.yaml")
+    grid = maps.read_map(shared_data / "maps" / "turtlebot3-world-nav2" / "map.yaml")
+    cm = costmap_from_map(grid, params)
+    assert (cm.height, cm.width) == (384, 384)
+    assert int((cm.costs == LETHAL_OBSTACLE).sum()) == 795     # the map's occupied cells
+    assert int((cm.costs == NO_INFORMATION).sum()) < 138722    # unknown next to walls inflated
