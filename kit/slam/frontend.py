@@ -252,10 +252,10 @@ class Slam:
         omega = self._prior_information(step)
         ref = self._local_reference()
         if ref is None or len(points) < 10:
-            return predicted, np.linalg.inv(omega)
+            return predicted, np.asarray(np.linalg.inv(omega), dtype=np.float64)
         result = sm.icp(points, ref, predicted, omega)
         if result.inlier_fraction < self.config.min_inliers:
-            return predicted, np.linalg.inv(omega)
+            return predicted, np.asarray(np.linalg.inv(omega), dtype=np.float64)
         return result.pose, result.covariance
 
     def _local_reference(self) -> sm.PointCloudReference | None:
@@ -398,4 +398,5 @@ def map_beams(scan: msgs.LaserScan, base_to_laser: ArrayLike, beam_motion: Float
     c, s = np.cos(sensor[:, 2]), np.sin(sensor[:, 2])
     ends = np.column_stack([sensor[:, 0] + c * local[:, 0] - s * local[:, 1],
                             sensor[:, 1] + s * local[:, 0] + c * local[:, 1]])
-    return ends, (valid & (np.nan_to_num(r) <= reach))[used]
+    hits = np.asarray((valid & (np.nan_to_num(r) <= reach))[used], dtype=np.bool_)
+    return np.asarray(ends, dtype=np.float64), hits
