@@ -61,6 +61,16 @@ class SlamConfig:
     icp: sm.IcpConfig = field(default_factory=sm.IcpConfig)
     min_inliers: float = 0.3
     """A match pairing fewer of its points than this fraction is not trusted."""
+    poor_rmse: float = 0.08
+    """An ICP match that did not converge, or whose residuals' RMS exceeds this [m], is
+    searched again correlatively; the search's answer is kept when it puts 5 % more of the
+    scan's points within 0.1 m of the local map."""
+    search_linear_window: float = 0.3
+    """Half-width [m] of that correlative search around the prediction."""
+    search_angular_window: float = math.radians(20.0)
+    """Half-width [rad] of that search (odometry's heading can jump this much)."""
+    search_prior_scale: float = 0.01
+    """The odometry prior's information is scaled by this for the ICP after the search."""
     odometry_noise: tuple[float, float, float, float] = (0.1, 0.02, 0.2, math.radians(1.0))
     """(α_xy, σ_xy, α_θ, σ_θ): the odometry between two scans is trusted to
     ``α_xy d + σ_xy`` [m] and ``α_θ |Δθ| + σ_θ`` [rad] (d the distance driven); an assumption."""
@@ -82,6 +92,13 @@ class SlamConfig:
     """Minimum mean likelihood (``loop_match_minimum_response_fine``)."""
     loop_max_variance: float = 0.05
     """Maximum positional variance [m²] of an accepted match."""
+    loop_min_support: float = 0.7
+    """Share of the scan's points the refined match must put within 0.1 m of the reference."""
+    loop_max_shift: tuple[float, float] = (0.3, 0.03)
+    """A closure may move the node by at most ``a + b · d`` metres, ``d`` the driving [m]
+    since the candidate: the drift scan matching can have accumulated (an assumption)."""
+    loop_max_turn: tuple[float, float] = (math.radians(3.0), math.radians(0.3))
+    """… and turn it by at most ``a + b · d`` radians."""
     loop_kernel_delta: float = 3.0
     """Cauchy kernel width on loop edges (in √χ² units)."""
     loop_every: int = 1
@@ -195,6 +212,7 @@ class Slam:
         self._travelled = 0.0
         self._reference: sm.PointCloudReference | None = None
         self._reference_key: tuple[int, int] = (-1, -1)
+        self._field: tuple[tuple[int, int], FloatArray, sm.LikelihoodField] | None = None
         self._optimisations = 0
         self._last_closure = -(10**9)
 
@@ -248,15 +266,46 @@ class Slam:
 
     def _match(self, points: FloatArray, predicted: FloatArray, step: FloatArray
                ) -> tuple[FloatArray, FloatArray]:
-        """ICP of the scan against the local map, from and held by the prediction."""
+        """ICP of the scan against the local map, from and held by the prediction; when that
+        match looks poor, a correlative search around the prediction (which a wrong start
+        cannot trap) followed by ICP from its answer, keeping the better of the two."""
         omega = self._prior_information(step)
         ref = self._local_reference()
+        fallback = (predicted, np.asarray(np.linalg.inv(omega), dtype=np.float64))
         if ref is None or len(points) < 10:
-            return predicted, np.asarray(np.linalg.inv(omega), dtype=np.float64)
+            return fallback
         result = sm.icp(points, ref, predicted, omega)
+        if result.converged and result.rmse <= self.config.poor_rmse:
+            return result.pose, result.covariance
+        support = _support(points, ref, result.pose)
+        field = self._local_field(ref, predicted)
+        if field is not None:
+            cfg = self.config
+            coarse = sm.correlative_match(points, field, predicted, cfg.search_linear_window,
+                                          cfg.search_angular_window, math.radians(0.5))
+            second = sm.icp(points, ref, coarse.pose, omega * cfg.search_prior_scale)
+            if _support(points, ref, second.pose) > support + 0.05:
+                result = second
         if result.inlier_fraction < self.config.min_inliers:
-            return predicted, np.asarray(np.linalg.inv(omega), dtype=np.float64)
+            return fallback
         return result.pose, result.covariance
+
+    def _local_field(self, ref: sm.PointCloudReference, around: FloatArray
+                     ) -> sm.LikelihoodField | None:
+        """The local map's likelihood field within ``max_range`` of ``around`` (cached while
+        the local map stays)."""
+        cached = self._field
+        if cached is not None and cached[0] == self._reference_key and \
+                np.hypot(*(cached[1] - around[:2])) < 2.0:
+            return cached[2]
+        cfg = self.config
+        near = ref.points[np.hypot(*(ref.points - around[:2]).T) <= cfg.max_range]
+        if len(near) < 10:
+            return None
+        field = sm.likelihood_field(near, cfg.loop_resolution, cfg.loop_resolution,
+                                    margin=cfg.search_linear_window + 0.5)
+        self._field = (self._reference_key, around[:2].copy(), field)
+        return field
 
     def _local_reference(self) -> sm.PointCloudReference | None:
         key = (len(self.nodes), self._optimisations)
@@ -333,8 +382,17 @@ class Slam:
         if coarse.response < cfg.loop_min_response or \
                 max(coarse.covariance[0, 0], coarse.covariance[1, 1]) > cfg.loop_max_variance:
             return False
-        fine = sm.icp(source, sm.PointCloudReference(reference, cfg.icp), coarse.pose)
-        if not fine.converged or fine.inlier_fraction < max(cfg.min_inliers, 0.5):
+        ref = sm.PointCloudReference(reference, cfg.icp)
+        if ref.tree is None:
+            return False
+        fine = sm.icp(source, ref, coarse.pose)
+        if not fine.converged or _support(source, ref, fine.pose) < cfg.loop_min_support:
+            return False
+        # the correction must be one the drift since the candidate could have caused
+        travel = self.nodes[index].travelled - self.nodes[candidate].travelled
+        shift = geometry.relative(poses[index], fine.pose)
+        if math.hypot(shift[0], shift[1]) > cfg.loop_max_shift[0] + cfg.loop_max_shift[1] * \
+                travel or abs(shift[2]) > cfg.loop_max_turn[0] + cfg.loop_max_turn[1] * travel:
             return False
         nearest = min(chain, key=lambda k: float(np.hypot(*(poses[k, :2] - fine.pose[:2]))))
         info = self._edge_information(relative_covariance(poses[nearest], fine.covariance))
@@ -377,6 +435,16 @@ class Slam:
             if progress is not None:
                 progress(1)
         return grid
+
+
+def _support(points: FloatArray, ref: sm.PointCloudReference, pose: FloatArray,
+             within: float = 0.1) -> float:
+    """Share of ``points`` placed at ``pose`` that lie within ``within`` metres of the
+    reference: how well two candidate matches agree with the local map."""
+    assert ref.tree is not None
+    d, _ = ref.tree.query(geometry.transform_points(pose, points), k=1,
+                          distance_upper_bound=within)
+    return float(np.mean(d < np.inf))
 
 
 def map_beams(scan: msgs.LaserScan, base_to_laser: ArrayLike, beam_motion: FloatArray | None,
