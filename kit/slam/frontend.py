@@ -186,6 +186,20 @@ class _Node:
     """Distance driven from the start to this node [m]."""
     scan: msgs.LaserScan | None
     beam_motion: FloatArray | None
+    normals: FloatArray | None = None
+    """Normals of the usable ``points[usable]`` (estimated once, from this scan alone)."""
+    usable: NDArray[np.bool_] | None = None
+
+    def surface(self, config: sm.IcpConfig) -> tuple[FloatArray, FloatArray]:
+        """The points with usable normals, and the normals (``base`` frame)."""
+        if self.normals is None or self.usable is None:
+            if len(self.points) >= 3:
+                self.normals, self.usable = sm.estimate_normals(
+                    self.points, config.neighbours, max_spread=config.max_spread)
+            else:
+                self.normals, self.usable = np.zeros((0, 2)), np.zeros(len(self.points), bool)
+            self.normals = self.normals[self.usable] if len(self.normals) else self.normals
+        return self.points[self.usable], self.normals
 
 
 class Slam:
@@ -316,13 +330,20 @@ class Slam:
         return self._reference
 
     def _reference_for(self, nodes: Iterable[int]) -> sm.PointCloudReference | None:
+        """The nodes' scans at their current poses, with the normals each node's own scan
+        gave (rotated along), as one ICP reference."""
         poses = self.graph.poses
-        clouds = [geometry.transform_points(poses[k], self.nodes[k].points) for k in nodes
-                  if len(self.nodes[k].points)]
-        if not clouds:
+        points, normals = [], []
+        for k in nodes:
+            pts, nrm = self.nodes[k].surface(self.config.icp)
+            if len(pts):
+                c, s = math.cos(poses[k, 2]), math.sin(poses[k, 2])
+                rot = np.array([[c, s], [-s, c]])
+                points.append(pts @ rot + poses[k, :2])
+                normals.append(nrm @ rot)
+        if not points:
             return None
-        merged = thin(np.vstack(clouds), self.config.point_spacing)
-        ref = sm.PointCloudReference(merged, self.config.icp)
+        ref = sm.PointCloudReference(np.vstack(points), self.config.icp, np.vstack(normals))
         return ref if ref.tree is not None else None
 
     def _add_node(self, scan: msgs.LaserScan, pose: FloatArray, covariance: FloatArray,

@@ -162,15 +162,24 @@ class PointCloudReference:
 
     points: FloatArray
     config: IcpConfig = field(default_factory=IcpConfig)
+    normals: FloatArray | None = None
+    """Unit normals of ``points``, estimated from them when not given."""
 
     def __post_init__(self) -> None:
         from scipy.spatial import cKDTree
 
         pts = _check_points(self.points, "reference points")
-        normals, usable = estimate_normals(pts, self.config.neighbours,
-                                           max_spread=self.config.max_spread)
-        self.points = pts[usable]
-        self.normals = normals[usable]
+        if self.normals is None:
+            normals, usable = estimate_normals(pts, self.config.neighbours,
+                                               max_spread=self.config.max_spread)
+            pts, normals = pts[usable], normals[usable]
+        else:
+            normals = np.asarray(self.normals, dtype=np.float64)
+            if normals.shape != pts.shape:
+                raise ValueError(f"normals must match the points' shape {pts.shape}; got "
+                                 f"{normals.shape}")
+        self.points = pts
+        self.normals = normals
         self.tree = cKDTree(self.points) if len(self.points) else None
 
 
@@ -184,6 +193,7 @@ def _pairs(source: FloatArray, ref: PointCloudReference, pose: FloatArray, cfg: 
     assert ref.tree is not None  # icp() returns before matching against no points
     dist, idx = ref.tree.query(q, k=1, distance_upper_bound=cfg.max_distance)
     found = np.flatnonzero(dist < np.inf)
+    assert ref.normals is not None
     q, m, n = q[found], ref.points[idx[found]], ref.normals[idx[found]]
     r = n[:, 0] * (q[:, 0] - m[:, 0]) + n[:, 1] * (q[:, 1] - m[:, 1])
     keep_count = max(3, math.ceil(cfg.trim * len(found)))
