@@ -60,6 +60,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_grader.py
 	$(BIN)/python benchmarks/bench_drivers.py
 	$(BIN)/python benchmarks/bench_planning.py
+	$(BIN)/python benchmarks/bench_slam.py
 	$(BIN)/python -m sim bench
 
 clean:

@@ -68,7 +68,7 @@ def _wheels(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMAND_MODULES: tuple[str, ...] = ("kit.drivers._cli", "kit.planning._cli")
+COMMAND_MODULES: tuple[str, ...] = ("kit.drivers._cli", "kit.planning._cli", "kit.slam.command")
 """Modules with a ``register(subparsers)`` that adds their subcommands."""
 
 

@@ -1,0 +1,116 @@
+"""``kit slam LOG_OR_BAG [--relations FILE] --out DIR``: SLAM over a CARMEN log or a ROS bag.
+
+Writes into ``DIR``: ``map.yaml`` + ``map.pgm`` (a map_server map) and ``map.png``,
+``trajectory.csv`` (``stamp,x,y,yaw`` of every scan's optimised ``T_map_base``; a CARMEN
+log's stamps are its IPC timestamps), ``graph.g2o`` (the optimised pose graph) and, with
+``--relations``, ``errors.csv`` (the benchmark's metric per relation) and its summary on the
+terminal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from kit.slam import carmen, evaluate, offline
+from kit.slam.frontend import Slam
+from kit.slam.pose_graph import write_g2o
+
+__all__ = ["main", "register"]
+
+BAG_SUFFIXES = (".mcap", ".db3", ".bag")
+
+
+def register(subparsers: Any) -> None:
+    """Add ``slam`` to the ``kit`` command."""
+    p = subparsers.add_parser("slam", help="map a CARMEN log or a ROS bag (graph SLAM)",
+                              description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("recording", help="a CARMEN log (.clf, .log, .gz) or a bag (folder, .mcap, "
+                                     ".db3, .bag)")
+    p.add_argument("--out", required=True, type=Path, help="output folder")
+    p.add_argument("--relations", type=Path, help="Kümmerle et al. relations to score against")
+    p.add_argument("--resolution", type=float, default=0.05, help="map cell size [m]")
+    p.add_argument("--scan-topic", default="/scan")
+    p.add_argument("--odom-topic", default="/odom")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_run)
+
+
+def _is_bag(path: Path) -> bool:
+    return path.is_dir() or path.suffix in BAG_SUFFIXES
+
+
+def _progress(total: int, quiet: bool, what: str) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="scan", desc=what, disable=quiet, file=sys.stderr)
+
+
+def _slam(args: argparse.Namespace) -> Slam:
+    path = Path(args.recording)
+    if not path.exists():
+        raise ValueError(f"{path}: no such log or bag")
+    if _is_bag(path):
+        recording = offline.read_bag_recording(path, args.scan_topic, args.odom_topic)
+        with _progress(len(recording.scans), args.quiet, "slam") as bar:
+            return offline.run_bag(recording, progress=bar.update)
+    log = carmen.read_carmen(path)
+    with _progress(len(log.lasers), args.quiet, "slam") as bar:
+        return offline.run_carmen(log, progress=bar.update)
+
+
+def write_png(grid: np.ndarray, path: Path) -> None:
+    """The trinary grid as map_saver's grey levels (free 254, occupied 0, unknown 205),
+    top row first."""
+    from PIL import Image
+
+    image = np.full(grid.shape, 205, dtype=np.uint8)
+    image[grid == 0] = 254
+    image[grid == 100] = 0
+    Image.fromarray(np.flipud(image)).save(path)
+
+
+def _run(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    relations = carmen.read_relations(args.relations) if args.relations else None
+    slam = _slam(args)
+    out.mkdir(parents=True, exist_ok=True)
+    with _progress(len(slam.nodes), args.quiet, "map") as bar:
+        grid = slam.occupancy_map(args.resolution, progress=bar.update)
+    grid.save(out / "map.yaml")
+    write_png(grid.trinary(), out / "map.png")
+    stamps, poses = slam.trajectory()
+    with (out / "trajectory.csv").open("w", encoding="utf-8") as f:
+        f.write("stamp,x,y,yaw\n")
+        for t, (x, y, yaw) in zip(stamps, poses, strict=True):
+            f.write(f"{t:.6f},{x:.6f},{y:.6f},{yaw:.6f}\n")
+    write_g2o(slam.graph, out / "graph.g2o")
+    print(f"{len(stamps)} scans, {slam.graph.num_nodes} nodes, "
+          f"{len(slam.loop_closures)} loop closures; wrote {out}/map.yaml, map.pgm, map.png, "
+          f"trajectory.csv, graph.g2o")
+    if relations is not None:
+        errors = evaluate.relation_errors(stamps, poses, relations)
+        with (out / "errors.csv").open("w", encoding="utf-8") as f:
+            f.write("t1,t2,translational_m,rotational_rad\n")
+            for a, b, e, r in zip(relations.t1[errors.evaluated], relations.t2[errors.evaluated],
+                                  errors.translational, errors.rotational, strict=True):
+                f.write(f"{a:.6f},{b:.6f},{e:.6f},{r:.6f}\n")
+        print(f"relations: {int(errors.evaluated.sum())} of {len(relations)} evaluated "
+              f"(errors.csv); mean ± std:")
+        print(evaluate.summarize(errors).line("all"))
+        if np.any(np.abs(errors.span) <= 1.0):
+            print(evaluate.summarize(errors, 1.0).line("≤ 1 s"))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``kit slam ...`` on its own (the ``kit`` command is the usual way in)."""
+    parser = argparse.ArgumentParser(prog="kit")
+    register(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(["slam", *(sys.argv[1:] if argv is None else argv)])
+    return int(args.func(args))

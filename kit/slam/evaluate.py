@@ -1,0 +1,118 @@
+"""The SLAM benchmark's metric (Kümmerle et al., "On measuring the accuracy of SLAM
+algorithms", Autonomous Robots 27(4), 2009).
+
+For each ground-truth relation ``δ* = x*(t1)⁻¹ ⊕ x*(t2)`` the trajectory under test gives
+``δ̂ = x̂(t1)⁻¹ ⊕ x̂(t2)``, and the relation's error is
+
+.. math:: ε = δ̂^{-1} ⊕ δ^*
+
+whose translation ``|ε_xy|`` [m] and rotation ``|wrap(ε_θ)|`` [rad] are averaged (mean ± std,
+and the squared versions) over all relations and over the local ones (``t2 − t1`` at most
+``local_seconds``, 1 s by default: the subset scan-to-scan matching is judged on). The
+metric depends only on relative poses, so a trajectory in any global frame can be scored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from kit import geometry
+from kit.slam.carmen import Relations
+
+__all__ = ["ErrorSummary", "RelationErrors", "relation_errors", "summarize"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class RelationErrors:
+    """Per-relation errors of the relations whose two times are in the trajectory."""
+
+    translational: FloatArray
+    """|ε_xy| [m], one per evaluated relation."""
+    rotational: FloatArray
+    """|ε_θ| [rad]."""
+    span: FloatArray
+    """t2 − t1 [s]."""
+    evaluated: NDArray[np.bool_]
+    """Which of the file's relations were matched to trajectory stamps."""
+
+
+@dataclass(frozen=True)
+class ErrorSummary:
+    count: int
+    translational_mean: float
+    translational_std: float
+    rotational_mean_deg: float
+    rotational_std_deg: float
+    translational_sq_mean: float
+    translational_sq_std: float
+    rotational_sq_mean_deg2: float
+    rotational_sq_std_deg2: float
+
+    def line(self, label: str) -> str:
+        return (f"{label:8s} {self.count:5d}  {self.translational_mean:.4f} ± "
+                f"{self.translational_std:.4f} m  {self.rotational_mean_deg:.3f} ± "
+                f"{self.rotational_std_deg:.3f} deg")
+
+
+def _match(stamps: FloatArray, times: FloatArray, tolerance: float
+           ) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    order = np.argsort(stamps)
+    s = stamps[order]
+    k = np.clip(np.searchsorted(s, times), 1, max(len(s) - 1, 1))
+    left, right = s[k - 1], s[np.minimum(k, len(s) - 1)]
+    nearest = np.where(np.abs(times - left) <= np.abs(right - times), k - 1, k)
+    nearest = np.minimum(nearest, len(s) - 1)
+    ok = np.abs(s[nearest] - times) <= tolerance
+    return order[nearest], ok
+
+
+def relation_errors(stamps: ArrayLike, poses: ArrayLike, relations: Relations,
+                    tolerance: float = 1e-3) -> RelationErrors:
+    """The error of every relation whose times match trajectory ``stamps`` within
+    ``tolerance`` seconds.
+
+    Parameters
+    ----------
+    stamps : array_like, shape (N,)
+        Times [s] of the trajectory's poses (the log's IPC timestamps).
+    poses : array_like, shape (N, 3)
+        The robot's estimated poses (x, y, θ) in any fixed frame.
+    relations
+        From :func:`kit.slam.carmen.read_relations`.
+
+    >>> from kit.slam.carmen import Relations
+    >>> rel = Relations(np.array([0.0]), np.array([1.0]), np.array([[1.0, 0.0, 0.0]]))
+    >>> e = relation_errors([0.0, 1.0], [[0, 0, 0], [1.1, 0, 0.1]], rel)
+    >>> round(float(e.translational[0]), 4), round(float(e.rotational[0]), 4)
+    (0.1, 0.1)
+    """
+    t = np.asarray(stamps, dtype=np.float64)
+    x = geometry.check_pose(poses, "poses")
+    if t.ndim != 1 or x.ndim != 2 or len(t) != len(x) or len(t) == 0:
+        raise ValueError(f"stamps (N,) and poses (N, 3) must have the same non-zero length; "
+                         f"got {t.shape} and {x.shape}")
+    i1, ok1 = _match(t, relations.t1, tolerance)
+    i2, ok2 = _match(t, relations.t2, tolerance)
+    ok = ok1 & ok2
+    estimated = geometry.relative(x[i1[ok]], x[i2[ok]])
+    eps = geometry.compose(geometry.inverse(estimated), relations.delta[ok])
+    return RelationErrors(np.hypot(eps[:, 0], eps[:, 1]),
+                          np.abs(geometry.wrap_angle(eps[:, 2])),
+                          relations.t2[ok] - relations.t1[ok], ok)
+
+
+def summarize(errors: RelationErrors, local_seconds: float | None = None) -> ErrorSummary:
+    """Mean ± std of the errors (all of them, or those spanning at most ``local_seconds``)."""
+    sel = np.ones(len(errors.span), dtype=bool) if local_seconds is None else \
+        np.abs(errors.span) <= local_seconds
+    if not sel.any():
+        raise ValueError("no relation to summarise (none matched the trajectory's stamps)")
+    tr, rot = errors.translational[sel], np.degrees(errors.rotational[sel])
+    return ErrorSummary(int(sel.sum()), float(tr.mean()), float(tr.std()), float(rot.mean()),
+                        float(rot.std()), float((tr**2).mean()), float((tr**2).std()),
+                        float((rot**2).mean()), float((rot**2).std()))

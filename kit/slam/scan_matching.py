@@ -1,0 +1,480 @@
+"""Scan matching: where is a scan, given a reference (another scan or a local map)?
+
+Two matchers, used together by the SLAM front end:
+
+* **Point-to-line ICP** (Censi's PL-ICP family, here with Gauss–Newton steps): each source
+  point ``p`` is moved by the pose ``x = (t, θ)`` to ``q = R(θ) p + t`` and paired with its
+  nearest reference point ``m``, whose surface normal is ``n``; the residual is the distance
+  to the reference's local line, ``r = nᵀ (q − m)``. Each iteration minimises
+
+  .. math:: \\sum_k \\frac{r_k^2}{σ^2} + (x - x_p)^T Ω_p (x - x_p)
+
+  over the pairs that survive trimming (the ``trim`` fraction with the smallest ``|r|``,
+  after dropping pairs farther apart than ``max_distance``), where ``x_p`` is an odometry
+  prior with information ``Ω_p``. The covariance of the result is ``(Jᵀ J / s² + Ω_p)⁻¹`` with
+  ``s²`` the residuals' variance (never below ``σ²``): wide along a corridor, where the scan
+  cannot tell positions apart and the prior takes over.
+
+* **Correlative, multi-resolution matching** (Olson, "Real-time correlative scan matching",
+  ICRA 2009; the matcher of Karto and SLAM Toolbox): the reference is rasterised into a
+  likelihood field ``L = exp(−d² / 2σ²)`` (``d`` the distance to the nearest reference point)
+  and every pose of a search window (x, y, θ) is scored by the mean of ``L`` at the moved
+  points (the *response*, 0…1). A coarse table holding, per cell, the maximum of ``L`` over the
+  ``f × f`` fine offsets it stands for bounds every fine score from above, so fine offsets are
+  only scored inside the coarse cells that could still beat the best fine score found
+  (branch and bound: the result is the exhaustive search's). The covariance comes from the
+  responses around the best pose, as Karto computes it.
+
+Poses are ``T_reference_source``: the source scan's frame in the reference frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from kit import geometry
+
+__all__ = [
+    "ODOMETRY_PRIOR",
+    "IcpConfig",
+    "LikelihoodField",
+    "MatchResult",
+    "PointCloudReference",
+    "correlative_match",
+    "estimate_normals",
+    "icp",
+    "icp_iteration",
+    "likelihood_field",
+]
+
+FloatArray = NDArray[np.float64]
+
+ODOMETRY_PRIOR = np.diag([1 / 0.05**2, 1 / 0.05**2, 1 / math.radians(3.0) ** 2])
+"""Information of an odometry guess between scans a fraction of a second apart: 5 cm and
+3° standard deviation (an assumption; wheel odometry's local error on the CSAIL log is
+3 cm and 3° on average)."""
+ODOMETRY_PRIOR.flags.writeable = False
+
+
+@dataclass(frozen=True)
+class MatchResult:
+    """A matcher's answer: the pose ``T_reference_source`` and how sure it is."""
+
+    pose: FloatArray
+    covariance: FloatArray
+    """3×3 over (x [m], y [m], θ [rad])."""
+    converged: bool
+    iterations: int = 0
+    inlier_fraction: float = 0.0
+    """ICP: share of source points paired with the reference at the end."""
+    rmse: float = 0.0
+    """ICP: root mean square point-to-line residual of the kept pairs [m]."""
+    response: float = 0.0
+    """Correlative: mean likelihood of the moved points at the best pose (0…1)."""
+
+
+def _check_points(points: ArrayLike, name: str) -> FloatArray:
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (M, 2) [m]; got shape {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"{name} contains NaN or infinite values")
+    return p
+
+
+# ----------------------------------------------------------------------------- ICP
+def estimate_normals(points: ArrayLike, neighbours: int = 5, tree: Any = None,
+                     max_spread: float = 0.5) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """Unit surface normals of 2-D points from their nearest neighbours, and which are usable.
+
+    The normal is the direction of least spread of the point and its ``neighbours`` nearest
+    neighbours (the smaller eigenvector of their 2×2 covariance). A point is usable when that
+    neighbourhood is line-like (the smaller eigenvalue under a tenth of the larger) and
+    no neighbour lies farther than ``max_spread`` metres.
+
+    Returns
+    -------
+    normals : (M, 2)
+    usable : (M,) bool
+
+    >>> pts = np.column_stack([np.linspace(0, 1, 11), np.full(11, 2.0)])
+    >>> n, ok = estimate_normals(pts, neighbours=3)
+    >>> bool(ok.all()), np.abs(n).round(6).max(axis=0).tolist()
+    (True, [0.0, 1.0])
+    """
+    from scipy.spatial import cKDTree
+
+    p = _check_points(points, "points")
+    k = min(neighbours + 1, len(p))
+    if k < 3:
+        return np.zeros_like(p), np.zeros(len(p), dtype=bool)
+    tree = cKDTree(p) if tree is None else tree
+    dist, idx = tree.query(p, k=k)
+    nb = p[idx]                                        # (M, k, 2)
+    d = nb - nb.mean(axis=1, keepdims=True)
+    cxx = (d[..., 0] ** 2).mean(axis=1)
+    cyy = (d[..., 1] ** 2).mean(axis=1)
+    cxy = (d[..., 0] * d[..., 1]).mean(axis=1)
+    # direction of largest spread: angle φ with tan 2φ = 2 cxy / (cxx − cyy)
+    phi = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)
+    normals = np.column_stack([-np.sin(phi), np.cos(phi)])
+    half_trace = 0.5 * (cxx + cyy)
+    root = np.sqrt((0.5 * (cxx - cyy)) ** 2 + cxy**2)
+    small, large = half_trace - root, half_trace + root
+    usable = (small <= 0.1 * large) & (dist[:, -1] <= max_spread) & (large > 0)
+    return normals, usable
+
+
+@dataclass(frozen=True)
+class IcpConfig:
+    """Point-to-line ICP settings (SI units)."""
+
+    max_iterations: int = 30
+    max_distance: float = 0.5
+    """Pairs farther apart than this [m] are not used."""
+    trim: float = 0.9
+    """Fraction of the remaining pairs kept, those with the smallest residuals."""
+    sigma: float = 0.02
+    """Assumed standard deviation of a point-to-line residual [m] (range noise)."""
+    tolerance: float = 1e-4
+    """Stop when a step moves less than this [m, rad]."""
+    neighbours: int = 5
+    """Neighbours used for a reference point's normal."""
+    max_spread: float = 0.5
+    """A normal whose neighbours spread wider than this [m] is not used."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.trim <= 1.0:
+            raise ValueError(f"trim is a fraction in (0, 1]; got {self.trim}")
+        if self.max_iterations < 1 or self.max_distance <= 0 or self.sigma <= 0:
+            raise ValueError("max_iterations, max_distance and sigma must be positive")
+
+
+@dataclass
+class PointCloudReference:
+    """Reference points with their normals and a k-d tree, built once and matched against
+    many times (the previous scan, a local map)."""
+
+    points: FloatArray
+    config: IcpConfig = field(default_factory=IcpConfig)
+    normals: FloatArray | None = None
+    """Unit normals of ``points``, estimated from them when not given."""
+
+    def __post_init__(self) -> None:
+        from scipy.spatial import cKDTree
+
+        pts = _check_points(self.points, "reference points")
+        if self.normals is None:
+            normals, usable = estimate_normals(pts, self.config.neighbours,
+                                               max_spread=self.config.max_spread)
+            pts, normals = pts[usable], normals[usable]
+        else:
+            normals = np.asarray(self.normals, dtype=np.float64)
+            if normals.shape != pts.shape:
+                raise ValueError(f"normals must match the points' shape {pts.shape}; got "
+                                 f"{normals.shape}")
+        self.points = pts
+        self.normals = normals
+        self.tree = cKDTree(self.points) if len(self.points) else None
+
+
+def _pairs(source: FloatArray, ref: PointCloudReference, pose: FloatArray, cfg: IcpConfig
+           ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], FloatArray]:
+    """The moved source points ``q`` of the pairs kept (nearest reference point within
+    ``max_distance``, then the ``trim`` fraction with the smallest residuals), their reference
+    points, normals, source indices and residuals ``nᵀ (q − m)``."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    q = source @ np.array([[c, s], [-s, c]]) + pose[:2]
+    assert ref.tree is not None  # icp() returns before matching against no points
+    dist, idx = ref.tree.query(q, k=1, distance_upper_bound=cfg.max_distance)
+    found = np.flatnonzero(dist < np.inf)
+    assert ref.normals is not None
+    q, m, n = q[found], ref.points[idx[found]], ref.normals[idx[found]]
+    r = n[:, 0] * (q[:, 0] - m[:, 0]) + n[:, 1] * (q[:, 1] - m[:, 1])
+    keep_count = max(3, math.ceil(cfg.trim * len(found)))
+    if keep_count < len(found):
+        keep = np.argpartition(np.abs(r), keep_count - 1)[:keep_count]
+        q, m, n, found, r = q[keep], m[keep], n[keep], found[keep], r[keep]
+    return q, m, n, found, r
+
+
+def icp_iteration(source: FloatArray, reference: PointCloudReference, pose: ArrayLike,
+                  prior: ArrayLike | None = None, prior_information: ArrayLike | None = None
+                  ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """One Gauss–Newton step of point-to-line ICP.
+
+    With ``q = R(θ) p + t`` the residual ``r = nᵀ (q − m)`` has the Jacobian
+    ``J = [n_x, n_y, nᵀ (∂q/∂θ)]`` where ``∂q/∂θ = (−(q_y − t_y), q_x − t_x)``; the step
+    solves ``(JᵀJ/σ² + Ω_p) Δx = −(Jᵀ r/σ² + Ω_p (x − x_p))``.
+
+    Parameters
+    ----------
+    source : (M, 2)
+        Points in the source frame [m].
+    reference
+        The reference points and normals.
+    pose : (3,)
+        Current ``T_reference_source``.
+    prior, prior_information : (3,) and (3, 3), optional
+        An odometry guess of the pose and its information matrix.
+
+    Returns
+    -------
+    new_pose : (3,)
+    H : (3, 3)
+        ``Jᵀ J / σ²`` of the scan's pairs alone (no prior).
+    residuals : (K,)
+        Point-to-line residuals [m] of the kept pairs, before the step.
+    """
+    cfg = reference.config
+    x = np.asarray(pose, dtype=np.float64)
+    q, _, n, _, r = _pairs(source, reference, x, cfg)
+    J = np.empty((len(r), 3))
+    J[:, :2] = n
+    J[:, 2] = -n[:, 0] * (q[:, 1] - x[1]) + n[:, 1] * (q[:, 0] - x[0])
+    w = 1.0 / cfg.sigma**2
+    H = w * (J.T @ J)
+    g = w * (J.T @ r)
+    A = H
+    if prior is not None:
+        omega = np.asarray(prior_information, dtype=np.float64)
+        d = x - np.asarray(prior, dtype=np.float64)
+        d[2] = float(geometry.wrap_angle(d[2]))
+        A = H + omega
+        g = g + omega @ d
+    try:
+        step = -np.linalg.solve(A, g)
+    except np.linalg.LinAlgError:
+        step = -np.linalg.lstsq(A, g, rcond=None)[0]
+    new = x + step
+    new[2] = float(geometry.wrap_angle(new[2]))
+    return new, H, r
+
+
+def icp(source: ArrayLike, reference: PointCloudReference | ArrayLike, initial: ArrayLike,
+        prior_information: ArrayLike | None = None, config: IcpConfig | None = None
+        ) -> MatchResult:
+    """Point-to-line ICP of ``source`` points onto ``reference`` from ``initial``.
+
+    With ``prior_information`` the initial pose is also a prior (an odometry guess) that
+    the result may not stray from more than the scan justifies.
+
+    >>> t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    >>> room = np.column_stack([3 * np.cos(t), 2 * np.sin(t)])   # an elliptic wall
+    >>> true = np.array([0.1, -0.05, 0.03])
+    >>> scan = geometry.transform_points(geometry.inverse(true), room)
+    >>> icp(scan, room, [0, 0, 0]).pose.round(3).tolist()
+    [0.1, -0.05, 0.03]
+    """
+    src = _check_points(source, "source")
+    ref = reference if isinstance(reference, PointCloudReference) else \
+        PointCloudReference(np.asarray(reference, dtype=np.float64),
+                            config or IcpConfig())
+    cfg = ref.config if config is None else config
+    if config is not None and config != ref.config:
+        ref = PointCloudReference(ref.points, config)
+    x0 = geometry.check_pose(initial, "initial")
+    prior = x0.copy() if prior_information is not None else None
+    omega = None if prior_information is None else \
+        np.asarray(prior_information, dtype=np.float64)
+    if ref.tree is None or len(src) < 3:
+        return MatchResult(x0, _fallback_covariance(omega), False)
+    x, H, r = x0, np.zeros((3, 3)), np.zeros(0)
+    converged, it = False, 0
+    for it in range(1, cfg.max_iterations + 1):  # noqa: B007 - reported
+        new, H, r = icp_iteration(src, ref, x, prior, omega)
+        moved = max(abs(new[0] - x[0]), abs(new[1] - x[1]),
+                    abs(float(geometry.wrap_angle(new[2] - x[2]))))
+        x = new
+        if len(r) < 3:
+            break
+        if moved < cfg.tolerance:
+            converged = True
+            break
+    _, H, r = icp_iteration(src, ref, x, prior, omega)
+    dof = max(len(r) - 3, 1)
+    s2 = max(float(r @ r) / dof, cfg.sigma**2)
+    info = H * (cfg.sigma**2 / s2)
+    if omega is not None:
+        info = info + omega
+    covariance = _inverse(info)
+    return MatchResult(x, covariance, converged and len(r) >= 3, it, len(r) / len(src),
+                       math.sqrt(float(r @ r) / max(len(r), 1)))
+
+
+def _inverse(info: FloatArray) -> FloatArray:
+    try:
+        cov = np.linalg.inv(info)
+        if np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(0.5 * (cov + cov.T)) > 0):
+            return 0.5 * (cov + cov.T)
+    except np.linalg.LinAlgError:
+        pass
+    return np.diag([1e6, 1e6, 1e3])  # unconstrained: nothing was learnt
+
+
+def _fallback_covariance(omega: FloatArray | None) -> FloatArray:
+    return _inverse(omega) if omega is not None else np.diag([1e6, 1e6, 1e3])
+
+
+# ----------------------------------------------------------------------------- correlative
+@dataclass(frozen=True, eq=False)
+class LikelihoodField:
+    """``values[row, col]`` = likelihood at the centre of cell (col, row); cell (0, 0)'s corner
+    is at ``origin`` (x, y) [m] in the reference frame."""
+
+    values: FloatArray
+    origin: FloatArray
+    resolution: float
+
+
+def likelihood_field(points: ArrayLike, resolution: float = 0.05, sigma: float = 0.05,
+                     margin: float = 1.0) -> LikelihoodField:
+    """Rasterise reference points into ``L = exp(−d² / 2σ²)``, ``d`` the distance from a cell
+    centre to the nearest reference point's cell, over their bounding box plus ``margin``.
+
+    >>> f = likelihood_field([[0.0, 0.0]], resolution=0.1, sigma=0.1, margin=0.3)
+    >>> f.values.shape, float(f.values.max())
+    ((7, 7), 1.0)
+    """
+    from scipy.ndimage import distance_transform_edt
+
+    p = _check_points(points, "points")
+    if len(p) == 0:
+        raise ValueError("a likelihood field needs at least one reference point")
+    if resolution <= 0 or sigma <= 0 or margin < 0:
+        raise ValueError("resolution and sigma must be positive, margin non-negative")
+    lo = p.min(axis=0) - margin
+    shape = np.floor((p.max(axis=0) + margin - lo) / resolution + 1e-9).astype(int) + 1
+    cells = np.floor((p - lo) / resolution).astype(int)
+    hit = np.ones((shape[1], shape[0]), dtype=bool)
+    hit[cells[:, 1], cells[:, 0]] = False
+    d = distance_transform_edt(hit) * resolution
+    return LikelihoodField(np.exp(-0.5 * (d / sigma) ** 2), lo, float(resolution))
+
+
+def _coarse(values: FloatArray, factor: int) -> FloatArray:
+    """``C[r, c] = max(L[r : r + f, c : c + f])``: the best any fine offset of the block
+    starting at (r, c) can score, so a coarse score bounds the fine ones from above."""
+    from scipy.ndimage import maximum_filter
+
+    if factor == 1:
+        return values
+    padded = np.pad(values, ((0, factor), (0, factor)))
+    return maximum_filter(padded, size=factor, origin=-(factor // 2), mode="constant",
+                          cval=0.0)[: values.shape[0] + 1, : values.shape[1] + 1]
+
+
+def _score(table: FloatArray, ix: NDArray[np.int64], iy: NDArray[np.int64],
+           ox: NDArray[np.int64], oy: NDArray[np.int64]) -> FloatArray:
+    """Mean of ``table`` over points at cells (ix + ox, iy + oy) for each offset, (O,);
+    points off the table score 0."""
+    h, w = table.shape
+    cx = ix[:, None] + ox[None, :]
+    cy = iy[:, None] + oy[None, :]
+    inside = (cx >= 0) & (cx < w) & (cy >= 0) & (cy < h)
+    vals = table[np.clip(cy, 0, h - 1), np.clip(cx, 0, w - 1)]
+    return np.asarray(np.where(inside, vals, 0.0).mean(axis=0), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class _Window:
+    half_x: int
+    half_y: int
+    angles: FloatArray
+    factor: int
+
+
+def correlative_match(source: ArrayLike, reference: LikelihoodField, initial: ArrayLike,
+                      linear_window: float = 0.5, angular_window: float = 0.35,
+                      angular_step: float | None = None, coarse_factor: int = 4
+                      ) -> MatchResult:
+    """The pose within ``initial ± (linear_window, linear_window, angular_window)`` [m, m,
+    rad] where the source points best fit the likelihood field, to one cell and one angular
+    step, with Karto's covariance of the responses around it.
+
+    ``angular_step`` defaults to the angle that moves the farthest source point by one cell.
+    """
+    src = _check_points(source, "source")
+    x0 = geometry.check_pose(initial, "initial")
+    if len(src) == 0:
+        raise ValueError("correlative_match needs source points")
+    res = reference.resolution
+    reach = max(float(np.hypot(src[:, 0], src[:, 1]).max()), res)
+    step = angular_step if angular_step is not None else min(res / reach, 0.05)
+    n_ang = math.floor(angular_window / step)
+    angles = x0[2] + step * np.arange(-n_ang, n_ang + 1)
+    f = max(1, int(coarse_factor))
+    half = math.ceil(linear_window / res / f) * f
+    win = _Window(half, half, angles, f)
+    coarse = _coarse(reference.values, f)
+    best = _search(src, reference, coarse, x0, win)
+    pose = np.array([x0[0] + best[1] * res, x0[1] + best[2] * res, angles[best[0]]])
+    cov = _response_covariance(src, reference, x0, angles, best)
+    return MatchResult(pose, cov, True, response=best[3])
+
+
+def _cells(src: FloatArray, ref: LikelihoodField, x0: FloatArray, angle: float
+           ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    q = geometry.transform_points([x0[0], x0[1], angle], src)
+    ix = np.floor((q[:, 0] - ref.origin[0]) / ref.resolution).astype(np.int64)
+    iy = np.floor((q[:, 1] - ref.origin[1]) / ref.resolution).astype(np.int64)
+    return ix, iy
+
+
+def _search(src: FloatArray, ref: LikelihoodField, coarse: FloatArray, x0: FloatArray,
+            win: _Window) -> tuple[int, int, int, float]:
+    """Branch and bound over (angle, coarse block), then the fine offsets of the blocks
+    that can still win; returns the best (angle index, dx, dy [cells], response)."""
+    f = win.factor
+    bx = np.arange(-win.half_x, win.half_x + 1, f)
+    by = np.arange(-win.half_y, win.half_y + 1, f)
+    gx, gy = (g.ravel() for g in np.meshgrid(bx, by))
+    cells = [_cells(src, ref, x0, float(a)) for a in win.angles]
+    candidates: list[tuple[float, int, int, int]] = []
+    for k, (ix, iy) in enumerate(cells):
+        s = _score(coarse, ix, iy, gx, gy)
+        candidates.extend(zip(s.tolist(), [k] * len(s), gx.tolist(), gy.tolist(), strict=True))
+    candidates.sort(key=lambda c: -c[0])
+    fx, fy = (g.ravel() for g in np.meshgrid(np.arange(f), np.arange(f)))
+    best = (len(win.angles) // 2, 0, 0, -1.0)
+    for bound, k, ox, oy in candidates:
+        if bound <= best[3]:
+            break
+        ix, iy = cells[k]
+        s = _score(ref.values, ix, iy, ox + fx, oy + fy)
+        j = int(np.argmax(s))
+        if s[j] > best[3]:
+            best = (k, int(ox + fx[j]), int(oy + fy[j]), float(s[j]))
+    return best
+
+
+def _response_covariance(src: FloatArray, ref: LikelihoodField, x0: FloatArray,
+                         angles: FloatArray, best: tuple[int, int, int, float],
+                         reach: int = 3) -> FloatArray:
+    """Karto's estimate: the response-weighted spread of the poses within ``reach`` cells and
+    angular steps of the best whose response is within 10 % of it, floored at a quarter cell
+    and a quarter step."""
+    res = ref.resolution
+    step = float(angles[1] - angles[0]) if len(angles) > 1 else 0.01
+    off = np.arange(-reach, reach + 1)
+    ox, oy = (g.ravel() for g in np.meshgrid(off + best[1], off + best[2]))
+    rows = []
+    for k in range(max(0, best[0] - reach), min(len(angles), best[0] + reach + 1)):
+        ix, iy = _cells(src, ref, x0, float(angles[k]))
+        s = _score(ref.values, ix, iy, ox, oy)
+        rows.append(np.column_stack([(ox - best[1]) * res, (oy - best[2]) * res,
+                                     np.full(len(s), (k - best[0]) * step), s]))
+    table = np.vstack(rows)
+    response = best[3]
+    near = table[:, 3] >= response - 0.1 * max(response, 1e-9)
+    w = table[near, 3] / table[near, 3].sum()
+    d = table[near, :3]
+    mean = w @ d
+    cov = (d * w[:, None]).T @ d - np.outer(mean, mean)
+    floor = np.diag([(0.25 * res) ** 2, (0.25 * res) ** 2, (0.25 * step) ** 2])
+    return np.asarray(0.5 * (cov + cov.T) + floor, dtype=np.float64)

@@ -1,0 +1,72 @@
+"""Occupancy grids, maps with trajectories, and scans: Lab 08."""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.axes import Axes
+from numpy.typing import ArrayLike
+
+from kit import msgs, perception
+from kit.mapping import OccupancyGridMap
+from kit.viz._base import axes as _axes
+
+__all__ = ["plot_grid", "plot_map_trajectory", "plot_scan"]
+
+
+def _image(grid: OccupancyGridMap | msgs.OccupancyGrid
+           ) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+    """Occupancy probability [row, col] (NaN unknown) and the extent in metres."""
+    if isinstance(grid, OccupancyGridMap):
+        p = grid.probability()
+        x0, y0, res = float(grid.origin[0]), float(grid.origin[1]), grid.resolution
+    else:
+        info = grid.info
+        cells = grid.data.reshape(info.height, info.width).astype(float)
+        p = np.where(cells < 0, np.nan, cells / 100.0)
+        x0, y0, res = info.origin.position.x, info.origin.position.y, info.resolution
+    rows, cols = p.shape
+    return p, (x0, x0 + cols * res, y0, y0 + rows * res)
+
+
+def plot_grid(grid: OccupancyGridMap | msgs.OccupancyGrid, ax: Axes | None = None,
+              title: str = "") -> Axes:
+    """A grid in the map frame [m]: white free, black occupied, grey unknown."""
+    ax = _axes(ax, equal=True)
+    p, extent = _image(grid)
+    shown = np.where(np.isnan(p), 0.5, p)
+    ax.imshow(1.0 - shown, cmap="gray", vmin=0.0, vmax=1.0, origin="lower", extent=extent,
+              interpolation="nearest")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_map_trajectory(grid: OccupancyGridMap | msgs.OccupancyGrid, poses: ArrayLike,
+                        ax: Axes | None = None, label: str = "trajectory",
+                        color: str = "tab:red", title: str = "") -> Axes:
+    """The map with a trajectory ``(N, 3)`` or ``(N, 2)`` [m] drawn over it."""
+    ax = plot_grid(grid, ax, title)
+    xy = np.asarray(poses, dtype=float).reshape(-1, np.shape(poses)[-1])[:, :2]
+    ax.plot(xy[:, 0], xy[:, 1], color=color, lw=1.0, label=label)
+    if len(xy):
+        ax.plot(*xy[0], marker="o", color=color)
+    ax.legend(loc="best")
+    return ax
+
+
+def plot_scan(scan: msgs.LaserScan, pose: ArrayLike = (0.0, 0.0, 0.0), ax: Axes | None = None,
+              color: str = "tab:blue", label: str = "scan", rays: bool = False) -> Axes:
+    """A scan's valid returns as points, taken with its sensor at ``pose`` (x, y, θ) [m, rad];
+    ``rays`` also draws the beams from the sensor."""
+    ax = _axes(ax, equal=True)
+    p = np.asarray(pose, dtype=float)
+    pts = perception.scan_to_points(scan, p)
+    if rays and len(pts):
+        segments = np.stack([np.broadcast_to(p[:2], pts.shape), pts], axis=1)
+        for seg in segments:
+            ax.plot(seg[:, 0], seg[:, 1], color=color, lw=0.2, alpha=0.3)
+    ax.plot(pts[:, 0], pts[:, 1], ".", ms=2, color=color, label=label)
+    ax.plot(*p[:2], marker="^", color=color)
+    return ax

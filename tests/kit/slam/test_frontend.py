@@ -1,0 +1,178 @@
+"""The SLAM front end and ``kit slam``: a synthetic CARMEN log of a known route through a known
+room, and the real TurtleBot 4 bag against its building map."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from kit import geometry, maps
+from kit.cli import main as kit_main
+from kit.slam import carmen, frontend, offline
+
+ROOM = np.array([[0, 0], [12, 0], [12, 6], [7, 6], [7, 3.5], [5, 3.5], [5, 6], [0, 6]], float)
+
+
+def cast(pose, beams=361, fov=np.pi):
+    """Exact ranges from ``pose`` to the polygon ROOM's walls, a front half-circle."""
+    angles = pose[2] + np.linspace(-fov / 2, fov / 2, beams)
+    d = np.column_stack([np.cos(angles), np.sin(angles)])
+    best = np.full(beams, np.inf)
+    for a, b in zip(ROOM, np.roll(ROOM, -1, axis=0), strict=True):
+        e = b - a
+        denom = d[:, 0] * e[1] - d[:, 1] * e[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((a[0] - pose[0]) * e[1] - (a[1] - pose[1]) * e[0]) / denom
+            u = ((a[0] - pose[0]) * d[:, 1] - (a[1] - pose[1]) * d[:, 0]) / denom
+        ok = (t > 0) & (u >= 0) & (u <= 1)
+        best = np.where(ok & (t < best), t, best)
+    return best
+
+
+def route(n=160):
+    """Out along the room and back: a loop the front end must close."""
+    s = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.column_stack([6 + 4 * np.cos(s), 2 + 1.0 * np.sin(s), s + np.pi / 2])
+
+
+def write_log(path, truth, rng, drift=(0.02, 0.004)):
+    """A FLASER log: exact scans plus noise, odometry with a slowly growing error."""
+    odo = truth[0].copy()
+    lines = []
+    for k, pose in enumerate(truth):
+        if k:
+            step = geometry.relative(truth[k - 1], pose)
+            step = step * (1 + drift[0]) + np.array([0, 0, drift[1]])
+            odo = geometry.compose(odo, step)
+        r = cast(pose) + rng.normal(0, 0.005, 361)
+        values = " ".join(f"{v:.4f}" for v in r)
+        o = " ".join(f"{v:.6f}" for v in odo)
+        lines.append(f"FLASER 361 {values} {o} {o} {100 + 0.2 * k:.3f} sim {0.2 * k:.3f}")
+    path.write_text("\n".join(lines) + "\n")
+    return 100 + 0.2 * np.arange(len(truth))
+
+
+def test_slam_on_a_known_route_beats_odometry_and_closes_the_loop(tmp_path):
+    rng = np.random.default_rng(0)
+    truth = route()
+    stamps = write_log(tmp_path / "room.log", truth, rng)
+    log = carmen.read_carmen(tmp_path / "room.log")
+    slam = offline.run_carmen(log)
+    t, poses = slam.trajectory()
+    assert np.allclose(t, stamps)
+    aligned = geometry.compose(geometry.compose(truth[0], geometry.inverse(poses[0])), poses)
+    err = np.hypot(*(aligned[:, :2] - truth[:, :2]).T)
+    odo = np.array([r.robot_pose for r in log.lasers])
+    odo_err = np.hypot(*(odo[:, :2] - truth[:, :2]).T)
+    assert err.max() < 0.05 < odo_err.max()
+    assert slam.loop_closures
+
+
+def test_kit_slam_writes_map_trajectory_graph_and_errors(tmp_path, capsys):
+    rng = np.random.default_rng(1)
+    truth = route(120)
+    stamps = write_log(tmp_path / "room.log", truth, rng)
+    pairs = [(0, 5), (10, 12), (3, 100)]
+    with (tmp_path / "room.relations").open("w") as f:
+        for i, j in pairs:
+            d = geometry.relative(truth[i], truth[j])
+            f.write(f"{stamps[i]:.3f} {stamps[j]:.3f} {d[0]:.6f} {d[1]:.6f} 0 0 0 {d[2]:.6f}\n")
+    out = tmp_path / "out"
+    code = kit_main(["slam", str(tmp_path / "room.log"), "--relations",
+                     str(tmp_path / "room.relations"), "--out", str(out), "--quiet"])
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "120 scans" in printed and "3 of 3 evaluated" in printed
+    for name in ("map.yaml", "map.pgm", "map.png", "trajectory.csv", "graph.g2o", "errors.csv"):
+        assert (out / name).is_file(), name
+    rows = list(csv.reader((out / "trajectory.csv").open()))
+    assert rows[0] == ["stamp", "x", "y", "yaw"] and len(rows) == 121
+    assert float(rows[1][0]) == pytest.approx(stamps[0])
+    grid = maps.read_map(out / "map.yaml")
+    assert (grid.data == 100).sum() > 100
+    errors = list(csv.DictReader((out / "errors.csv").open()))
+    assert max(float(e["translational_m"]) for e in errors) < 0.05
+
+
+def test_kit_slam_reports_bad_input(tmp_path, capsys):
+    assert kit_main(["slam", str(tmp_path / "none.log"), "--out", str(tmp_path)]) == 2
+    assert "no such log or bag" in capsys.readouterr().err
+    (tmp_path / "x.log").write_text("PARAM a b\n")
+    assert kit_main(["slam", str(tmp_path / "x.log"), "--out", str(tmp_path)]) == 2
+    assert "no FLASER or ROBOTLASER1" in capsys.readouterr().err
+
+
+def test_front_end_rejects_bad_settings_and_odometry():
+    with pytest.raises(ValueError, match="min_travel"):
+        frontend.SlamConfig(min_travel=0)
+    slam = frontend.Slam()
+    from kit import msgs
+
+    scan = msgs.LaserScan(angle_increment=0.1, range_max=5.0, ranges=np.ones(10))
+    with pytest.raises(ValueError, match="odometry"):
+        slam.add_scan(scan, [0.0, 0.0])
+    with pytest.raises(ValueError, match="one pose per beam"):
+        frontend.scan_points(scan, beam_motion=np.zeros((3, 3)))
+
+
+def test_de_skewing_undoes_the_motion_during_a_scan():
+    """A scan taken while turning in place, beam by beam: with the per-beam motion the
+    points land where an instantaneous scan would put them."""
+    from kit import msgs
+
+    pose = np.array([6.0, 2.0, 0.0])
+    rate = 1.0  # rad/s while the 361 beams are taken over 0.2 s
+    dt = 0.2 / 360
+    turned = [pose + np.array([0, 0, rate * i * dt]) for i in range(361)]
+    ranges = np.array([cast(p, beams=361)[i] for i, p in enumerate(turned)])
+    scan = msgs.LaserScan(angle_min=-np.pi / 2, angle_increment=np.pi / 360, range_max=30.0,
+                          ranges=ranges, time_increment=dt)
+    motion = np.column_stack([np.zeros(361), np.zeros(361), rate * dt * np.arange(361)])
+    straight = geometry.transform_points(pose, frontend.scan_points(scan, beam_motion=motion))
+    skewed = geometry.transform_points(pose, frontend.scan_points(scan))
+    assert wall_distance(straight).max() < 1e-4     # every point back on a wall
+    assert wall_distance(skewed).max() > 0.1        # without it the far walls bend
+
+
+def wall_distance(points):
+    """Distance of each point to the nearest wall of ROOM."""
+    best = np.full(len(points), np.inf)
+    for a, b in zip(ROOM, np.roll(ROOM, -1, axis=0), strict=True):
+        e = b - a
+        t = np.clip(((points - a) @ e) / (e @ e), 0, 1)
+        best = np.minimum(best, np.hypot(*(points - (a + t[:, None] * e)).T))
+    return best
+
+
+@pytest.mark.dataset
+@pytest.mark.slow
+def test_turtlebot4_map_agrees_with_the_building_map(shared_data, tmp_path):
+    """The real TurtleBot 4 bag mapped by ``kit slam``: aligned to the building map (a rigid
+    search), ≥ 80 % of its occupied cells lie within 0.1 m of the building's."""
+    from scipy.spatial import cKDTree
+
+    from kit.slam import scan_matching as sm
+
+    bag = shared_data / "ros2-bags/turtlebot4-real-olin-mac-first-floor"
+    assert kit_main(["slam", str(bag), "--out", str(tmp_path), "--quiet"]) == 0
+    ours = occupied_points(maps.read_map(tmp_path / "map.yaml"))
+    building = occupied_points(maps.read_map(
+        shared_data / "maps/olin-mac-first-floor-real/mac_1st_floor_final.yaml"))
+    field = sm.likelihood_field(building, 0.05, 0.1, margin=2.0)
+    source = frontend.thin(ours, 0.15)
+    best = max((sm.correlative_match(source, field, [0, 0, a], 6.0, np.radians(10),
+                                     np.radians(1), 8)
+                for a in np.radians(np.arange(-180, 180, 20))), key=lambda r: r.response)
+    fine = sm.correlative_match(frontend.thin(ours, 0.05), field, best.pose, 0.3,
+                                np.radians(2), np.radians(0.25), 2)
+    distance, _ = cKDTree(building).query(geometry.transform_points(fine.pose, ours))
+    assert (distance <= 0.1).mean() >= 0.8
+
+
+def occupied_points(grid):
+    info = grid.info
+    rows, cols = np.nonzero(grid.data.reshape(info.height, info.width) == 100)
+    return np.column_stack([info.origin.position.x + (cols + 0.5) * info.resolution,
+                            info.origin.position.y + (rows + 0.5) * info.resolution])

@@ -1,0 +1,184 @@
+"""Scan matching: point-to-line ICP and the correlative matcher, on synthetic rooms with known
+poses, against an exhaustive search, and on the CSAIL log's ground-truth relations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kit import geometry, perception
+from kit.slam import carmen
+from kit.slam import scan_matching as sm
+
+
+def walls(corners, spacing=0.02):
+    """Points every ``spacing`` metres along a closed polyline."""
+    pts = []
+    for a, b in zip(corners, np.roll(corners, -1, axis=0), strict=True):
+        n = max(2, int(np.hypot(*(b - a)) / spacing))
+        t = np.linspace(0, 1, n, endpoint=False)[:, None]
+        pts.append(a + t * (b - a))
+    return np.vstack(pts)
+
+
+ROOM = np.array([[0, 0], [6, 0], [6, 4], [3.5, 4], [3.5, 2.5], [2.5, 2.5], [2.5, 4], [0, 4]],
+                float)
+
+
+def seen_from(points, pose, rng=None, noise=0.0, max_range=8.0):
+    """The points in the frame of ``pose`` (a scan taken there, without occlusion)."""
+    local = geometry.transform_points(geometry.inverse(pose), points)
+    local = local[np.hypot(local[:, 0], local[:, 1]) < max_range]
+    if rng is not None and noise:
+        local = local + rng.normal(0, noise, local.shape)
+    return local
+
+
+def test_normals_of_a_wall_are_perpendicular_to_it_and_corners_unusable():
+    pts = walls(np.array([[0, 0], [2, 0], [2, 2], [0, 2]], float), 0.05)
+    n, ok = sm.estimate_normals(pts, neighbours=5)
+    on_bottom = (pts[:, 1] == 0) & (pts[:, 0] > 0.3) & (pts[:, 0] < 1.7)
+    assert ok[on_bottom].all()
+    assert np.allclose(np.abs(n[on_bottom, 1]), 1.0, atol=1e-9)
+    corner = np.argmin(np.hypot(pts[:, 0] - 2, pts[:, 1] - 2))
+    assert not ok[corner]
+
+
+def test_icp_recovers_a_known_pose_in_a_room():
+    rng = np.random.default_rng(0)
+    reference = walls(ROOM)
+    truth = np.array([2.0, 1.2, 0.3])
+    source = seen_from(reference, truth, rng, noise=0.005)
+    result = sm.icp(source, reference, truth + np.array([0.15, -0.1, 0.08]))
+    assert result.converged
+    assert np.allclose(result.pose, truth, atol=[3e-3, 3e-3, 2e-3])
+    assert result.rmse < 0.01 and result.inlier_fraction > 0.85
+    cov = result.covariance
+    assert np.allclose(cov, cov.T) and np.all(np.linalg.eigvalsh(cov) > 0)
+
+
+def test_one_icp_iteration_moves_towards_the_truth():
+    reference = walls(ROOM)
+    truth = np.array([2.0, 1.2, 0.3])
+    source = seen_from(reference, truth)
+    ref = sm.PointCloudReference(reference)
+    start = truth + np.array([0.05, 0.05, 0.02])
+    new, H, r = sm.icp_iteration(source, ref, start)
+    assert np.abs(new - truth).max() < 0.3 * np.abs(start - truth).max()
+    assert H.shape == (3, 3) and np.all(np.linalg.eigvalsh(H) > 0)
+    assert r.ndim == 1 and len(r) > 100
+
+
+def test_trimming_ignores_clutter_that_is_not_in_the_reference():
+    rng = np.random.default_rng(1)
+    reference = walls(ROOM)
+    truth = np.array([1.5, 2.0, -0.2])
+    source = seen_from(reference, truth, rng, noise=0.003)
+    clutter = rng.uniform(-0.6, 0.6, (len(source) // 8, 2))  # people near the sensor
+    result = sm.icp(np.vstack([source, clutter]), reference, truth + np.array([0.05, 0.05, 0.03]),
+                    config=sm.IcpConfig(trim=0.8))
+    assert np.allclose(result.pose, truth, atol=[5e-3, 5e-3, 3e-3])
+
+
+def test_in_a_corridor_the_prior_holds_the_unobservable_direction():
+    corridor = np.vstack([np.column_stack([np.arange(0, 30, 0.02), np.zeros(1500)]),
+                          np.column_stack([np.arange(0, 30, 0.02), np.full(1500, 1.5)])])
+    truth = np.array([10.0, 0.7, 0.0])
+    source = seen_from(corridor, truth)
+    guess = truth + np.array([0.3, 0.05, 0.02])   # odometry 0.3 m off along the corridor
+    info = np.diag([1 / 0.1**2, 1 / 0.1**2, 1 / 0.05**2])
+    result = sm.icp(source, corridor, guess, prior_information=info)
+    assert abs(result.pose[0] - guess[0]) < 0.01        # along: the prior decides
+    assert abs(result.pose[1] - truth[1]) < 0.005       # across: the walls decide
+    assert abs(result.pose[2] - truth[2]) < 0.002
+    sd = np.sqrt(np.diag(result.covariance))
+    assert sd[0] > 0.05 > 10 * sd[1]                    # and the covariance says so
+
+
+def test_bad_input_is_rejected():
+    with pytest.raises(ValueError, match=r"shape \(M, 2\)"):
+        sm.icp(np.zeros((5, 3)), walls(ROOM), [0, 0, 0])
+    with pytest.raises(ValueError, match="NaN"):
+        sm.icp(np.full((5, 2), np.nan), walls(ROOM), [0, 0, 0])
+    with pytest.raises(ValueError, match="trim"):
+        sm.IcpConfig(trim=0.0)
+    with pytest.raises(ValueError, match="at least one"):
+        sm.likelihood_field(np.zeros((0, 2)))
+
+
+def exhaustive(source, field, initial, window, angles):
+    """Every pose of the grid, scored the slow way."""
+    res = field.resolution
+    half = int(np.ceil(window / res))
+    best = (-1.0, None)
+    h, w = field.values.shape
+    for a in angles:
+        q = geometry.transform_points([initial[0], initial[1], a], source)
+        ix = np.floor((q[:, 0] - field.origin[0]) / res).astype(int)
+        iy = np.floor((q[:, 1] - field.origin[1]) / res).astype(int)
+        for dx in range(-half, half + 1):
+            for dy in range(-half, half + 1):
+                cx, cy = ix + dx, iy + dy
+                ok = (cx >= 0) & (cx < w) & (cy >= 0) & (cy < h)
+                score = np.where(ok, field.values[np.clip(cy, 0, h - 1),
+                                                  np.clip(cx, 0, w - 1)], 0).mean()
+                if score > best[0]:
+                    best = (score, (initial[0] + dx * res, initial[1] + dy * res, a))
+    return best
+
+
+def test_correlative_branch_and_bound_finds_the_exhaustive_optimum():
+    rng = np.random.default_rng(2)
+    reference = walls(ROOM, 0.05)
+    field = sm.likelihood_field(reference, resolution=0.05, sigma=0.05)
+    truth = np.array([2.0, 1.2, 0.3])
+    source = seen_from(reference, truth, rng, noise=0.01)
+    initial = truth + np.array([0.2, -0.15, 0.1])
+    result = sm.correlative_match(source, field, initial, linear_window=0.3,
+                                  angular_window=0.15, angular_step=0.02, coarse_factor=3)
+    n = int(np.floor(0.15 / 0.02))
+    score, pose = exhaustive(source, field, initial, 0.3 / 0.05 // 3 * 3 * 0.05 + 1e-9,
+                             initial[2] + 0.02 * np.arange(-n, n + 1))
+    assert result.response == pytest.approx(score, abs=1e-12)
+    assert np.allclose(result.pose, pose)
+    assert np.allclose(result.pose, truth, atol=[0.05, 0.05, 0.02])
+
+
+def test_correlative_match_escapes_where_icp_is_trapped_and_reports_its_spread():
+    reference = walls(ROOM, 0.05)
+    field = sm.likelihood_field(reference, resolution=0.05, sigma=0.05)
+    truth = np.array([4.5, 1.0, 0.0])
+    source = seen_from(reference, truth)
+    initial = truth + np.array([-0.45, 0.4, 0.3])
+    result = sm.correlative_match(source, field, initial, linear_window=0.6,
+                                  angular_window=0.4)
+    assert np.allclose(result.pose, truth, atol=[0.05, 0.05, 0.02])
+    assert result.response > 0.8
+    cov = result.covariance
+    assert np.allclose(cov, cov.T) and np.all(np.linalg.eigvalsh(cov) > 0)
+    assert np.sqrt(cov[0, 0]) < 0.1 and np.sqrt(cov[2, 2]) < 0.05
+
+
+@pytest.mark.dataset
+def test_icp_beats_odometry_on_the_csail_local_relations(shared_data):
+    """Every fifth ≤ 1 s relation (the benchmark script runs all 1,040): scan-to-scan ICP
+    from the raw odometry guess must stay within the issue's 0.03 m and 0.5° means."""
+    bench = shared_data / "kummerle2009-slam-benchmark"
+    log = carmen.read_carmen(bench / "mit-csail.clf.gz")
+    rel = carmen.read_relations(bench / "mit-csail.relations")
+    index = {round(t, 3): k for k, t in enumerate(log.laser_timestamps)}
+    local = np.flatnonzero(np.abs(rel.t2 - rel.t1) <= 1.0)[::5]
+    odo = np.array([r.robot_pose for r in log.lasers])
+    trans, rot, odo_rot = [], [], []
+    for k in local:
+        i, j = index[round(rel.t1[k], 3)], index[round(rel.t2[k], 3)]
+        scans = [perception.scan_to_points(carmen.laser_to_scan(log.lasers[m])) for m in (i, j)]
+        guess = geometry.relative(odo[i], odo[j])
+        result = sm.icp(scans[1], scans[0], guess, sm.ODOMETRY_PRIOR)
+        eps = geometry.compose(geometry.inverse(result.pose), rel.delta[k])
+        trans.append(np.hypot(eps[0], eps[1]))
+        rot.append(abs(float(geometry.wrap_angle(eps[2]))))
+        odo_rot.append(abs(float(geometry.wrap_angle(
+            geometry.compose(geometry.inverse(guess), rel.delta[k])[2]))))
+    assert np.mean(trans) <= 0.03
+    assert np.degrees(np.mean(rot)) <= 0.5 < np.degrees(np.mean(odo_rot))
