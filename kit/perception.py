@@ -186,9 +186,11 @@ the true arc: 0.1 mm at 10 m and 2 rad/s)."""
 
 
 def scan_to_points_tf(scan: msgs.LaserScan, tree: TransformTree, target_frame: str,
-                      fixed_frame: str | None = None,
-                      reference_time: float | None = None) -> FloatArray:
-    """The valid returns of ``scan`` as points in ``target_frame``, shape (M, 2) [m].
+                      fixed_frame: str | None = None, reference_time: float | None = None,
+                      all_beams: bool = False) -> FloatArray:
+    """The valid returns of ``scan`` as points in ``target_frame``, shape (M, 2) [m]
+    (``all_beams``: one row per beam, shape (N, 2), NaN for beams that are not valid
+    returns).
 
     Without ``fixed_frame`` every beam goes through one transform, ``T_target_laser`` at the
     scan's stamp: right for a robot standing still. With ``fixed_frame`` (``"odom"``) each
@@ -216,6 +218,10 @@ def scan_to_points_tf(scan: msgs.LaserScan, tree: TransformTree, target_frame: s
         A frame the tree does not know, or beam times outside its buffered odometry.
     """
     valid = valid_returns(scan)
+    if all_beams:
+        out = np.full((len(valid), 2), np.nan)
+        out[valid] = scan_to_points_tf(scan, tree, target_frame, fixed_frame, reference_time)
+        return out
     r = np.asarray(scan.ranges, dtype=np.float64)[valid]
     a = beam_angles(scan)[valid]
     local = np.column_stack([r * np.cos(a), r * np.sin(a), np.zeros_like(r)])
