@@ -40,6 +40,7 @@ __all__ = [
     "Pose",
     "PoseStamped",
     "PoseWithCovariance",
+    "PoseWithCovarianceStamped",
     "Quaternion",
     "TFMessage",
     "Time",
@@ -230,6 +231,15 @@ class PoseWithCovariance(_Normalised):
 
 
 @dataclass(frozen=True, eq=False)
+class PoseWithCovarianceStamped(Message):
+    """A pose estimate with its covariance in ``header.frame_id`` (AMCL's ``/amcl_pose``)."""
+
+    ROS_TYPE: ClassVar[str] = "geometry_msgs/msg/PoseWithCovarianceStamped"
+    header: Header = field(default_factory=Header)
+    pose: PoseWithCovariance = field(default_factory=PoseWithCovariance)
+
+
+@dataclass(frozen=True, eq=False)
 class PoseStamped(Message):
     ROS_TYPE: ClassVar[str] = "geometry_msgs/msg/PoseStamped"
     header: Header = field(default_factory=Header)
@@ -411,7 +421,8 @@ class TFMessage(Message):
 
 MESSAGE_TYPES: dict[str, type[Message]] = {
     cls.ROS_TYPE: cls
-    for cls in (Time, Header, Vector3, Point, Quaternion, Pose, PoseWithCovariance, PoseStamped,
+    for cls in (Time, Header, Vector3, Point, Quaternion, Pose, PoseWithCovariance,
+                PoseWithCovarianceStamped, PoseStamped,
                 Twist, TwistWithCovariance, Transform, TransformStamped, Odometry, Path,
                 MapMetaData, OccupancyGrid, LaserScan, Imu, JointState, TFMessage)
 }

@@ -48,6 +48,7 @@ SAMPLES = [
     msgs.JointState(header, ("right_wheel_joint", "left_wheel_joint"), [1.0, 2.0],
                     [0.5, -0.5], []),
     msgs.TFMessage((transform, transform)),
+    msgs.PoseWithCovarianceStamped(msgs.Header(stamp, "map"), msgs.PoseWithCovariance(pose, cov)),
 ]
 
 
