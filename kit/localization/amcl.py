@@ -45,7 +45,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry, msgs
-from kit.perception import scan_to_points_tf
 from kit.localization.likelihood_field import (
     BeamModel,
     LikelihoodField,
@@ -55,6 +54,7 @@ from kit.localization.likelihood_field import (
     likelihood_field_weights,
 )
 from kit.localization.particles import ParticleFilter, uniform_free_poses
+from kit.perception import scan_to_points_tf
 from kit.tf import ExtrapolationError, RigidTransform, TransformTree
 
 __all__ = [
@@ -365,8 +365,8 @@ class Amcl:
                 int(np.count_nonzero(~np.isnan(r)))
         endpoints = beam_endpoints(ranges, laser.bearings, laser.position, range_min,
                                    range_max, p.max_beams, points)
-        combine = "amcl" if p.laser_model_type == "likelihood_field" else "product"
-        lf = LikelihoodFieldModel(p.z_hit, p.z_rand, p.sigma_hit, combine)
+        lf = LikelihoodFieldModel(p.z_hit, p.z_rand, p.sigma_hit,
+                                  "amcl" if p.laser_model_type == "likelihood_field" else "product")
         return likelihood_field_weights(self.filter.poses, endpoints, self.field, lf,
                                         range_max), len(endpoints)
 

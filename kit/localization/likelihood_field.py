@@ -124,7 +124,8 @@ class LikelihoodField:
     @property
     def shape(self) -> tuple[int, int]:
         """(height, width) in cells."""
-        return self.occupied.shape  # type: ignore[return-value]
+        h, w = self.occupied.shape
+        return h, w
 
     @cached_property
     def to_grid(self) -> FloatArray:
