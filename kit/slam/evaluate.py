@@ -19,10 +19,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from kit import geometry
+from kit import geometry, msgs
 from kit.slam.carmen import Relations
 
-__all__ = ["ErrorSummary", "RelationErrors", "relation_errors", "summarize"]
+__all__ = ["ErrorSummary", "RelationErrors", "align_maps", "map_agreement", "occupied_points",
+           "relation_errors", "summarize"]
 
 FloatArray = NDArray[np.float64]
 
@@ -116,3 +117,53 @@ def summarize(errors: RelationErrors, local_seconds: float | None = None) -> Err
     return ErrorSummary(int(sel.sum()), float(tr.mean()), float(tr.std()), float(rot.mean()),
                         float(rot.std()), float((tr**2).mean()), float((tr**2).std()),
                         float((rot**2).mean()), float((rot**2).std()))
+
+
+# ----------------------------------------------------------------------------- maps
+def occupied_points(grid: msgs.OccupancyGrid) -> FloatArray:
+    """Centres [m] of the grid's occupied cells (value 100), ``(M, 2)``; the grid's origin
+    must not be rotated."""
+    info = grid.info
+    o = info.origin
+    if abs(float(geometry.quaternion_to_yaw([o.orientation.x, o.orientation.y,
+                                             o.orientation.z, o.orientation.w]))) > 1e-9:
+        raise ValueError("occupied_points needs a map whose origin is not rotated")
+    rows, cols = np.nonzero(grid.data.reshape(info.height, info.width) == 100)
+    return np.column_stack([o.position.x + (cols + 0.5) * info.resolution,
+                            o.position.y + (rows + 0.5) * info.resolution])
+
+
+def align_maps(grid: msgs.OccupancyGrid, reference: msgs.OccupancyGrid,
+               initial: ArrayLike = (0.0, 0.0, 0.0), linear_window: float = 6.0) -> FloatArray:
+    """``T_reference_grid``: the rigid pose that lays ``grid``'s occupied cells best on
+    ``reference``'s — a correlative search over every heading (18 sectors of 20°, 1° steps)
+    and ``initial ± linear_window`` metres, refined to 0.25° and one cell."""
+    from kit.slam import scan_matching as sm
+    from kit.slam.frontend import thin
+
+    ours, theirs = occupied_points(grid), occupied_points(reference)
+    if len(ours) == 0 or len(theirs) == 0:
+        raise ValueError("both maps need occupied cells to be aligned")
+    x0 = geometry.check_pose(initial)
+    field = sm.likelihood_field(theirs, 0.05, 0.1, margin=2.0)
+    source = thin(ours, 0.15)
+    best = max((sm.correlative_match(source, field, [x0[0], x0[1], x0[2] + a],
+                                     linear_window, np.radians(10), np.radians(1), 8)
+                for a in np.radians(np.arange(-180, 180, 20))), key=lambda r: r.response)
+    fine = sm.correlative_match(thin(ours, 0.05), field, best.pose, 0.3, np.radians(2),
+                                np.radians(0.25), 2)
+    return fine.pose
+
+
+def map_agreement(grid: msgs.OccupancyGrid, reference: msgs.OccupancyGrid,
+                  pose: ArrayLike | None = None, tolerance: float = 0.1
+                  ) -> tuple[float, FloatArray]:
+    """Share of ``grid``'s occupied cells within ``tolerance`` metres of an occupied cell of
+    ``reference``, once aligned by ``pose`` (``T_reference_grid``; found by
+    :func:`align_maps` when ``None``); returns the share and the pose."""
+    from scipy.spatial import cKDTree
+
+    p = align_maps(grid, reference) if pose is None else geometry.check_pose(pose)
+    distance, _ = cKDTree(occupied_points(reference)).query(
+        geometry.transform_points(p, occupied_points(grid)))
+    return float(np.mean(distance <= tolerance)), p
