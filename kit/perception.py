@@ -455,16 +455,7 @@ def depth_image_to_scan(depth: ArrayLike, fx: float, cx: float, cy: float, *,
     """
     d = _check_depth_image(depth)
     rows, width = d.shape
-    if not (math.isfinite(fx) and fx > 0 and math.isfinite(cx) and math.isfinite(cy)):
-        raise ValueError(f"the pinhole model needs fx > 0 and finite cx, cy [pixels]; got "
-                         f"fx={fx}, cx={cx}, cy={cy}")
-    if not 0.0 <= range_min < range_max:
-        raise ValueError(f"need 0 <= range_min < range_max [m]; got {range_min}, {range_max}")
-    if not (isinstance(scan_height, (int, np.integer)) and scan_height >= 1):
-        raise ValueError(f"scan_height is a number of rows >= 1; got {scan_height!r}")
-    if scan_height // 2 > cy or scan_height // 2 > rows - cy:
-        raise ValueError(f"scan_height ({scan_height} rows) is too large for an image of "
-                         f"{rows} rows around cy = {cy}")
+    _check_depth_band(rows, fx, cx, cy, scan_height, range_min, range_max)
     millimetres = d.dtype == np.uint16
     unit = float(np.float32(0.001)) if millimetres else 1.0     # toMeters(1)
     cx32, constant_x = np.float32(cx), np.float32(unit / fx)
@@ -486,8 +477,33 @@ def depth_image_to_scan(depth: ArrayLike, fx: float, cx: float, cy: float, *,
         with np.errstate(invalid="ignore"):
             x = (du * band.astype(np.float32) * constant_x).astype(np.float64)
             r = np.where(np.isfinite(z), np.hypot(x, z), z)      # NaN and ±inf pass through
-    r32 = r.astype(np.float32).ravel()
-    beam = np.tile(index, len(band))
+    ranges = _nearest_per_beam(r.astype(np.float32).ravel(), np.tile(index, len(band)), width,
+                               range_min, range_max)
+    return msgs.LaserScan(
+        header=header or msgs.Header(), angle_min=float(angle_min), angle_max=float(angle_max),
+        angle_increment=float(increment), time_increment=0.0, scan_time=scan_time,
+        range_min=range_min, range_max=range_max, ranges=ranges)
+
+
+def _check_depth_band(rows: int, fx: float, cx: float, cy: float, scan_height: int,
+                      range_min: float, range_max: float) -> None:
+    """:func:`depth_image_to_scan`'s argument checks (ValueError naming what is wrong)."""
+    if not (math.isfinite(fx) and fx > 0 and math.isfinite(cx) and math.isfinite(cy)):
+        raise ValueError(f"the pinhole model needs fx > 0 and finite cx, cy [pixels]; got "
+                         f"fx={fx}, cx={cx}, cy={cy}")
+    if not 0.0 <= range_min < range_max:
+        raise ValueError(f"need 0 <= range_min < range_max [m]; got {range_min}, {range_max}")
+    if not (isinstance(scan_height, (int, np.integer)) and scan_height >= 1):
+        raise ValueError(f"scan_height is a number of rows >= 1; got {scan_height!r}")
+    if scan_height // 2 > cy or scan_height // 2 > rows - cy:
+        raise ValueError(f"scan_height ({scan_height} rows) is too large for an image of "
+                         f"{rows} rows around cy = {cy}")
+
+
+def _nearest_per_beam(r32: NDArray[np.float32], beam: NDArray[np.int64], width: int,
+                      range_min: float, range_max: float) -> NDArray[np.float32]:
+    """Per beam the nearest range [m] within the limits; with none, the last ±inf in pixel
+    order; otherwise NaN (``depthimage_to_laserscan``'s rule)."""
     ranges = np.full(width, np.inf, dtype=np.float32)
     with np.errstate(invalid="ignore"):
         usable = np.isfinite(r32) & (r32 >= np.float32(range_min)) & \
@@ -495,15 +511,10 @@ def depth_image_to_scan(depth: ArrayLike, fx: float, cx: float, cy: float, *,
     np.minimum.at(ranges, beam[usable], r32[usable])
     have = np.zeros(width, dtype=bool)
     have[beam[usable]] = True
-    # no usable reading: the last ±inf in pixel order, or NaN
     infinite = np.flatnonzero(np.isinf(r32))
     fallback = np.full(width, np.nan, dtype=np.float32)
     fallback[beam[infinite]] = r32[infinite]  # later pixels overwrite earlier ones
-    ranges = np.where(have, ranges, fallback)
-    return msgs.LaserScan(
-        header=header or msgs.Header(), angle_min=float(angle_min), angle_max=float(angle_max),
-        angle_increment=float(increment), time_increment=0.0, scan_time=scan_time,
-        range_min=range_min, range_max=range_max, ranges=ranges)
+    return np.where(have, ranges, fallback)
 
 
 # ---------------------------------------------------------------- glass

@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
 
 def test_import_kit_pulls_in_no_plotting_physics_or_other_packages():
@@ -17,3 +18,19 @@ def test_import_kit_pulls_in_no_plotting_physics_or_other_packages():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_no_function_in_the_packages_is_over_80_lines():
+    """STYLE: a function that does one thing fits on a screen (docstring included)."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1]
+    long = []
+    for package in ("kit", "sim", "grader", "hardware"):
+        for path in sorted((root / package).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                    lines = node.end_lineno - node.lineno + 1
+                    if lines > 80:
+                        long.append(f"{path.relative_to(root)}:{node.lineno} {node.name} ({lines})")
+    assert not long, "functions over 80 lines: " + ", ".join(long)

@@ -12,6 +12,7 @@ import numpy as np
 
 from kit import msgs
 from kit.drivers.rplidar._protocol import Node
+from kit.geometry import wrap_angle
 
 
 def angular_span_deg(angles_deg: Iterable[float]) -> float:
@@ -168,7 +169,7 @@ def revolution_to_scan(nodes: list[Node] | tuple[Node, ...], stamp: msgs.Time,
     for node in nodes:
         if node.distance_mm <= 0:
             continue
-        angle = math.remainder(-math.radians(node.angle_deg), 2 * math.pi)
+        angle = float(wrap_angle(-math.radians(node.angle_deg)))
         index = round((angle + math.pi) / increment) % beams
         r = node.distance_mm / 1000.0
         if r < ranges[index]:
