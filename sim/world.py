@@ -91,6 +91,45 @@ class World:
         return (float(allpts[:, 0].min()), float(allpts[:, 1].min()),
                 float(allpts[:, 0].max()), float(allpts[:, 1].max()))
 
+    def occupancy_grid(self, resolution: float = 0.05, *, layer: str = "all",
+                       margin: float = 0.5) -> msgs.OccupancyGrid:
+        """The world drawn as a map_server map: cells a wall, box or disc touches are 100, the
+        rest 0, origin ``margin`` metres beyond the world's lower-left corner.
+
+        ``layer`` picks what is drawn: ``"all"`` (what bumps the robot), ``"lidar"`` (what a
+        lidar, and so a SLAM map, sees: no glass) or ``"glass"`` (only the glass: a keep-out
+        mask for Nav2's filter). Segments are sampled every quarter cell.
+        """
+        if not (math.isfinite(resolution) and resolution > 0):
+            raise ValueError(f"resolution is metres per cell > 0; got {resolution!r}")
+        if layer not in ("all", "lidar", "glass"):
+            raise ValueError(f"layer is 'all', 'lidar' or 'glass'; got {layer!r}")
+        resolution = float(np.float32(resolution))  # as the message stores it
+        x0, y0, x1, y1 = self.bounds
+        ox, oy = x0 - margin, y0 - margin
+        width = math.ceil((x1 + margin - ox) / resolution)
+        height = math.ceil((y1 + margin - oy) / resolution)
+        hit = np.zeros((height, width), dtype=bool)
+        chosen = {"all": np.ones(len(self.segments), bool), "lidar": ~self.segment_glass,
+                  "glass": self.segment_glass}[layer]
+        for ax, ay, bx, by in self.segments[chosen]:
+            n = int(math.hypot(bx - ax, by - ay) / (resolution / 4)) + 2
+            t = np.linspace(0.0, 1.0, n)
+            col = np.floor((ax + t * (bx - ax) - ox) / resolution).astype(np.int64)
+            row = np.floor((ay + t * (by - ay) - oy) / resolution).astype(np.int64)
+            hit[row.clip(0, height - 1), col.clip(0, width - 1)] = True
+        if layer != "glass" and len(self.circles):
+            rows, cols = np.indices(hit.shape)
+            cx, cy = ox + (cols + 0.5) * resolution, oy + (rows + 0.5) * resolution
+            half = resolution / 2
+            for x, y, r in self.circles:              # the disc touches the cell's square
+                hit |= np.hypot(np.maximum(np.abs(cx - x) - half, 0.0),
+                                np.maximum(np.abs(cy - y) - half, 0.0)) <= r
+        info = msgs.MapMetaData(resolution=resolution, width=width, height=height,
+                                origin=msgs.Pose(msgs.Point(ox, oy, 0.0)))
+        return msgs.OccupancyGrid(msgs.Header(frame_id="map"), info,
+                                  np.where(hit, 100, 0).astype(np.int8).ravel())
+
     @cached_property
     def _oil_rects(self) -> tuple[tuple[float, float, float, float], ...]:
         return tuple((float(a), float(b), float(c), float(d)) for a, b, c, d in self.oil)
