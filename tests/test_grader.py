@@ -389,6 +389,14 @@ BUGS = [
     ("lab05", "05-fusion.ipynb", "planar_jacobian",
      "    return np.array([[1, 0, -s * sn, dt * c, 0, 0.5 * dt * dt * c],",
      "    return np.array([[1, 0, s * sn, dt * c, 0, 0.5 * dt * dt * c],", ""),
+    ("lab09", "09-planning.ipynb", "inflate", "inflation_cost(cells[near] * resolution,",
+     "inflation_cost(cells[near],", "multiply a distance in cells by the resolution"),
+    ("lab09", "09-planning.ipynb", "octile_distance",
+     "return float(max(dr, dc) - min(dr, dc) + math.sqrt(2) * min(dr, dc))",
+     "return float(max(dr, dc))", "√2 long"),
+    ("lab09", "09-planning.ipynb", "astar",
+     "                if dr and dc and not (free[r + dr, c] and free[r, c + dc]):\n"
+     "                    continue\n", "", "both cells beside it are free"),
 ]
 
 
@@ -470,3 +478,15 @@ def test_a_crc_bug_also_costs_the_frames_built_with_it(tmp_path):
     lost = {k for k, v in result.exercises.items() if v.points < v.max_points}
     assert lost == {"lab03.crc16_xmodem", "lab03.velocity_frame"}
     assert "starts from 0x0000" in result.exercises["lab03.crc16_xmodem"].reason
+
+
+def test_an_inflation_cost_bug_also_costs_the_inflation_built_with_it(tmp_path):
+    """Lab 09's inflation calls the student's own cost function: the obstacle cell left at
+    253 costs both exercises, and the cost function's hint names the mistake."""
+    spec = load_lab("lab09")
+    path = mutate(SOLUTIONS / "09-planning.ipynb", tmp_path / "cost.ipynb",
+                  "    cost = np.where(d == 0, 254.0, cost)\n", "")
+    result = grade_notebook(path, spec)
+    lost = {k for k, v in result.exercises.items() if v.points < v.max_points}
+    assert lost == {"lab09.inflation_cost", "lab09.inflate"}
+    assert "LETHAL_OBSTACLE = 254" in result.exercises["lab09.inflation_cost"].reason

@@ -1,4 +1,4 @@
-"""The diagnostics catalogue: for every exercise of Labs 01-05, each classic mistake that
+"""The diagnostics catalogue: for every exercise of every lab, each classic mistake that
 applies to it, written here as a student would write it, must get exactly its hint.
 
 A buggy variant is run on the exercise's public cases and on seeded hidden cases, and judged
@@ -10,6 +10,8 @@ least one failing public case must name it alone.
 
 from __future__ import annotations
 
+import heapq
+import itertools
 import math
 import re
 
@@ -17,11 +19,12 @@ import numpy as np
 import pytest
 
 from grader.checker import explain
-from grader.spec import load_lab
+from grader.spec import lab_names, load_lab
 from kit import msgs
 
-LABS = ("lab01", "lab02", "lab03", "lab04", "lab05")
+LABS = lab_names()  # every lab with a spec must have its mistakes catalogued here
 HIDDEN_SEEDS = (1, 2)
+SQRT2 = math.sqrt(2)
 DIAG = re.compile(r"this is what (.+?) gives: ")
 
 
@@ -466,13 +469,112 @@ LAB05 = {
     ],
 }
 
-CATALOGUE = {"lab01": LAB01, "lab02": LAB02, "lab03": LAB03, "lab04": LAB04, "lab05": LAB05}
+# ------------------------------------------------------------------ lab 09 as students err
+
+def _cost(d, r, k, scale=252.0, lethal=True):
+    d = np.asarray(d, float)
+    c = np.where(d <= r, 253.0, np.minimum(scale * np.exp(-k * (d - r)), 252.0))
+    if lethal:
+        c = np.where(d == 0, 254.0, c)
+    return c.astype(np.uint8)
+
+
+def _inflate(lethal, res, r_in, radius, k, reach_cells=True, cost_metres=True):
+    lethal = np.asarray(lethal, bool)
+    out = np.zeros(lethal.shape, np.uint8)
+    sources = np.argwhere(lethal)
+    if not len(sources):
+        return out
+    rows, cols = np.indices(lethal.shape)
+    d2 = np.min([(rows - r) ** 2 + (cols - c) ** 2 for r, c in sources], axis=0)
+    cells = np.sqrt(d2)
+    reach = math.ceil(radius / res) if reach_cells else radius
+    near = cells <= reach
+    out[near] = _cost(cells[near] * (res if cost_metres else 1.0), r_in, k)
+    return out
+
+
+def _astar_as_students_err(free, start, goal, diagonal=SQRT2, cut=False, weight=1.0,
+                           transposed=False):
+    free = np.asarray(free, bool)
+    if transposed:            # cells read as (x, y): free[y][x] with x = row, y = col
+        free = free.T
+    h, w = free.shape
+    start, goal = tuple(start), tuple(goal)
+    inside = [0 <= p[0] < h and 0 <= p[1] < w and free[p] for p in (start, goal)]
+    if not all(inside):
+        return math.inf
+
+    def octile(a):
+        dr, dc = abs(a[0] - goal[0]), abs(a[1] - goal[1])
+        straight, diag = max(dr, dc) - min(dr, dc), min(dr, dc)
+        return weight * (straight + diagonal * diag)
+
+    best, done, queue = {start: 0.0}, set(), [(octile(start), start)]
+    while queue:
+        _, cell = heapq.heappop(queue)
+        if cell in done:
+            continue
+        if cell == goal:
+            return best[cell]
+        done.add(cell)
+        for dr, dc in itertools.product((-1, 0, 1), repeat=2):
+            n = (cell[0] + dr, cell[1] + dc)
+            if (dr, dc) == (0, 0) or not (0 <= n[0] < h and 0 <= n[1] < w) or not free[n]:
+                continue
+            if dr and dc and not cut and not (free[cell[0] + dr, cell[1]] and
+                                              free[cell[0], cell[1] + dc]):
+                continue
+            g = best[cell] + (diagonal if dr and dc else 1.0)
+            if g < best.get(n, math.inf):
+                best[n] = g
+                heapq.heappush(queue, (g + octile(n), n))
+    return math.inf
+
+
+LAB09 = {
+    "inflation_cost": [
+        ("the obstacle cell itself not lethal", lambda d, r, k: _cost(d, r, k, lethal=False)),
+        ("253 · exp(…) instead of (253 − 1) · exp(…)",
+         lambda d, r, k: _cost(d, r, k, scale=253.0)),
+    ],
+    "inflate": [
+        ("the inflation radius in metres against distances in cells",
+         lambda *a: _inflate(*a, reach_cells=False)),
+        ("distances in cells costed as metres", lambda *a: _inflate(*a, cost_metres=False)),
+    ],
+    "octile_distance": [
+        ("a diagonal step costing 1",
+         lambda a, b: float(max(abs(a[0] - b[0]), abs(a[1] - b[1])))),
+        ("Manhattan distance on an 8-connected grid",
+         lambda a, b: float(abs(a[0] - b[0]) + abs(a[1] - b[1]))),
+    ],
+    "astar": [
+        ("a diagonal step costing 1", lambda *a: _astar_as_students_err(*a, diagonal=1.0)),
+        ("corner cutting", lambda *a: _astar_as_students_err(*a, cut=True)),
+        ("a heuristic that is not admissible",
+         lambda *a: _astar_as_students_err(*a, weight=3.0)),
+        ("row and column swapped", lambda *a: _astar_as_students_err(*a, transposed=True)),
+    ],
+}
+
+
+CATALOGUE = {"lab01": LAB01, "lab02": LAB02, "lab03": LAB03, "lab04": LAB04, "lab05": LAB05,
+             "lab09": LAB09}
 COINCIDENT: dict[tuple[str, str], set[str]] = {
     # mistakes that give the same numbers on some cases: the check names both there
     ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
     ("tick_delta", "the increment modulo 2**bits, never negative"): {"a plain difference"},
     ("angle_residual", "an unwrapped difference"): {"a difference wrapped to [0, 2π)"},
     ("angle_residual", "a difference wrapped to [0, 2π)"): {"an unwrapped difference"},
+    # Lab 09: both unit slips leave only the obstacle when the costs decay within a cell;
+    # a transposed grid can block the path that a unit diagonal would have found
+    ("inflate", "the inflation radius in metres against distances in cells"):
+        {"distances in cells costed as metres"},
+    ("inflate", "distances in cells costed as metres"):
+        {"the inflation radius in metres against distances in cells"},
+    ("astar", "a diagonal step costing 1"): {"row and column swapped"},
+    ("astar", "row and column swapped"): {"a diagonal step costing 1"},
 }
 ENTRIES = [(lab, function, name, fn) for lab, table in CATALOGUE.items()
            for function, bugs in table.items() for name, fn in bugs]
