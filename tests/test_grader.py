@@ -389,6 +389,14 @@ BUGS = [
     ("lab05", "05-fusion.ipynb", "planar_jacobian",
      "    return np.array([[1, 0, -s * sn, dt * c, 0, 0.5 * dt * dt * c],",
      "    return np.array([[1, 0, s * sn, dt * c, 0, 0.5 * dt * dt * c],", ""),
+    ("lab08", "08-slam.ipynb", "update_log_odds",
+     "return np.clip(np.asarray(l, dtype=float) + np.asarray(change, dtype=float), l_min, l_max)",
+     "return np.asarray(l, dtype=float) + np.asarray(change, dtype=float)", "clamp to"),
+    ("lab08", "08-slam.ipynb", "beam_endpoints", "    c, s = math.cos(theta), math.sin(theta)\n",
+     "    c, s = 1.0, 0.0\n", "rotate the points by the laser's heading"),
+    ("lab08", "08-slam.ipynb", "gauss_newton_step", "    for i, j, z, omega in edges:\n",
+     "    for i, j, z, omega in [(i, j, z, np.linalg.inv(om)) for i, j, z, om in edges]:\n",
+     "the inverse covariance"),
     ("lab09", "09-planning.ipynb", "inflate", "inflation_cost(cells[near] * resolution,",
      "inflation_cost(cells[near],", "multiply a distance in cells by the resolution"),
     ("lab09", "09-planning.ipynb", "octile_distance",
@@ -478,6 +486,19 @@ def test_a_crc_bug_also_costs_the_frames_built_with_it(tmp_path):
     lost = {k for k, v in result.exercises.items() if v.points < v.max_points}
     assert lost == {"lab03.crc16_xmodem", "lab03.velocity_frame"}
     assert "starts from 0x0000" in result.exercises["lab03.crc16_xmodem"].reason
+
+
+def test_a_transposed_jacobian_also_costs_the_gauss_newton_step_built_with_it(tmp_path):
+    """Lab 08's Gauss–Newton step calls the student's own Jacobians: one bug, two exercises,
+    and the Jacobians' hint names the mistake."""
+    spec = load_lab("lab08")
+    path = mutate(SOLUTIONS / "08-slam.ipynb", tmp_path / "jacobian.ipynb",
+                  "    return A, B\n    ### END SOLUTION",
+                  "    return A.T, B.T\n    ### END SOLUTION")
+    result = grade_notebook(path, spec)
+    lost = {k for k, v in result.exercises.items() if v.points < v.max_points}
+    assert lost == {"lab08.edge_jacobians", "lab08.gauss_newton_step"}
+    assert "rows are the error's components" in result.exercises["lab08.edge_jacobians"].reason
 
 
 def test_an_inflation_cost_bug_also_costs_the_inflation_built_with_it(tmp_path):

@@ -469,6 +469,92 @@ LAB05 = {
     ],
 }
 
+# ------------------------------------------------------------------ lab 08 as students err
+
+def _ends(ranges, angle_min, inc, pose, rotate=True, keep_inf=False, in_laser=False):
+    r = np.asarray(ranges, float)
+    a = angle_min + inc * np.arange(len(r))
+    if not keep_inf:
+        a, r = a[np.isfinite(r)], r[np.isfinite(r)]
+    with np.errstate(invalid="ignore"):
+        px, py = r * np.cos(a), r * np.sin(a)
+        if in_laser:
+            return np.column_stack([px, py])
+        th = pose[2] if rotate else 0.0
+        return np.column_stack([pose[0] + math.cos(th) * px - math.sin(th) * py,
+                                pose[1] + math.sin(th) * px + math.cos(th) * py])
+
+
+def _rel(a, b):
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return np.array([c * dx + s * dy, -s * dx + c * dy, b[2] - a[2]])
+
+
+def _edge(xi, xj, z, wrap=True):
+    d = _rel(np.asarray(z, float), _rel(np.asarray(xi, float), np.asarray(xj, float)))
+    if wrap:
+        d[2] = (d[2] + math.pi) % (2 * math.pi) - math.pi
+    return d
+
+
+def _jac(xi, xj, z):
+    ci, si = math.cos(xi[2]), math.sin(xi[2])
+    a = ci * (xj[0] - xi[0]) + si * (xj[1] - xi[1])
+    b = -si * (xj[0] - xi[0]) + ci * (xj[1] - xi[1])
+    c, s = math.cos(xi[2] + z[2]), math.sin(xi[2] + z[2])
+    cz, sz = math.cos(z[2]), math.sin(z[2])
+    A = np.array([[-c, -s, cz * b - sz * a], [s, -c, -sz * b - cz * a], [0, 0, -1.0]])
+    B = np.array([[c, s, 0], [-s, c, 0], [0, 0, 1.0]])
+    return A, B
+
+
+def _gn(poses, edges, invert=False, uphill=False):
+    x = np.asarray(poses, float)
+    n = len(x)
+    H, b = np.zeros((3 * n, 3 * n)), np.zeros(3 * n)
+    for i, j, z, om in edges:
+        om = np.linalg.inv(om) if invert else np.asarray(om, float)
+        e, (A, B) = _edge(x[i], x[j], z), _jac(x[i], x[j], z)
+        for p, P in ((i, A), (j, B)):
+            b[3 * p:3 * p + 3] += P.T @ om @ e
+            for q, Q in ((i, A), (j, B)):
+                H[3 * p:3 * p + 3, 3 * q:3 * q + 3] += P.T @ om @ Q
+    dx = np.zeros(3 * n)
+    dx[3:] = np.linalg.solve(H[3:, 3:], (b if uphill else -b)[3:])
+    new = x + dx.reshape(n, 3)
+    new[:, 2] = (new[:, 2] + math.pi) % (2 * math.pi) - math.pi
+    return new
+
+
+LAB08 = {
+    "update_log_odds": [
+        ("log-odds not clamped", lambda odds, c, lo, hi: np.asarray(odds) + np.asarray(c)),
+        ("probabilities multiplied", lambda odds, c, lo, hi: np.clip(np.log(
+            (p := 1 / (1 + np.exp(-np.asarray(odds))) / (1 + np.exp(-np.asarray(c))))
+            / (1 - p)), lo, hi)),
+    ],
+    "beam_endpoints": [
+        ("the laser's heading ignored", lambda *a: _ends(*a, rotate=False)),
+        ("points left in the laser's frame", lambda *a: _ends(*a, in_laser=True)),
+        ("inf ranges made into points", lambda *a: _ends(*a, keep_inf=True)),
+    ],
+    "edge_error": [
+        ("angle residual not wrapped", lambda xi, xj, z: _edge(xi, xj, z, wrap=False)),
+        ("poses subtracted in the world frame",
+         lambda xi, xj, z: np.asarray(xj, float) - np.asarray(xi, float) - np.asarray(z, float)),
+    ],
+    "edge_jacobians": [
+        ("Jacobians transposed", lambda *a: tuple(m.T for m in _jac(*a))),
+        ("A and B swapped", lambda *a: _jac(*a)[::-1]),
+    ],
+    "gauss_newton_step": [
+        ("information matrix inverted", lambda p, e: _gn(p, e, invert=True)),
+        ("the step taken uphill", lambda p, e: _gn(p, e, uphill=True)),
+    ],
+}
+
+
 # ------------------------------------------------------------------ lab 09 as students err
 
 def _cost(d, r, k, scale=252.0, lethal=True):
@@ -560,7 +646,7 @@ LAB09 = {
 
 
 CATALOGUE = {"lab01": LAB01, "lab02": LAB02, "lab03": LAB03, "lab04": LAB04, "lab05": LAB05,
-             "lab09": LAB09}
+             "lab08": LAB08, "lab09": LAB09}
 COINCIDENT: dict[tuple[str, str], set[str]] = {
     # mistakes that give the same numbers on some cases: the check names both there
     ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
