@@ -68,7 +68,8 @@ def _wheels(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMAND_MODULES: tuple[str, ...] = ("kit.drivers._cli", "kit.planning._cli", "kit.slam.command")
+COMMAND_MODULES: tuple[str, ...] = ("kit.drivers._cli", "kit.planning._cli", "kit.slam.command",
+                                     "kit.localization.cli")
 """Modules with a ``register(subparsers)`` that adds their subcommands."""
 
 
