@@ -469,6 +469,97 @@ LAB05 = {
     ],
 }
 
+# ------------------------------------------------------------------ lab 07 as students err
+
+def _sense07(belief, world, z, hit, miss, normalise=True, add=False):
+    lik = np.array([hit if c == z else miss for c in world])
+    b = np.asarray(belief, float) + lik if add else np.asarray(belief, float) * lik
+    return b / b.sum() if normalise else b
+
+
+def _move07(belief, shift, under, exact, over, backwards=False, noise=True):
+    b = np.asarray(belief, float)
+    sign = -1 if backwards else 1
+    if not noise:
+        return np.roll(b, sign * shift)
+    return (exact * np.roll(b, sign * shift) + under * np.roll(b, sign * (shift - 1))
+            + over * np.roll(b, sign * (shift + 1)))
+
+
+def _control07(a, b, degrees=False, swap=False, wrap=True):
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    trans = math.hypot(dx, dy)
+    w = (lambda t: (t + math.pi) % (2 * math.pi) - math.pi) if wrap else (lambda t: t)
+    heading = math.atan2(dx, dy) if swap else math.atan2(dy, dx)
+    rot1 = 0.0 if trans < 0.01 else w(heading - a[2])
+    rot2 = w(b[2] - a[2] - rot1)
+    if degrees:
+        return np.array([math.degrees(rot1), trans, math.degrees(rot2)])
+    return np.array([rot1, trans, rot2])
+
+
+def _loglik07(poses, ends, dist, res, origin, z_hit, z_rand, sigma, rmax, product=False,
+              rotate=True):
+    p, e, d = np.asarray(poses, float), np.asarray(ends, float), np.asarray(dist, float)
+    out = []
+    for x, y, th in p:
+        th = th if rotate else 0.0
+        pz = []
+        for ex, ey in e:
+            px, py = x + math.cos(th) * ex - math.sin(th) * ey, y + math.sin(th) * ex + \
+                math.cos(th) * ey
+            r, c = math.floor((py - origin[1]) / res), math.floor((px - origin[0]) / res)
+            dd = d[r, c] if 0 <= r < d.shape[0] and 0 <= c < d.shape[1] else d.max()
+            pz.append(z_hit * math.exp(-dd * dd / (2 * sigma * sigma)) + z_rand / rmax)
+        if product:
+            total = math.prod(pz)
+            out.append(math.log(total) if total > 0 else -math.inf)
+        else:
+            out.append(sum(math.log(v) for v in pz))
+    return np.array(out)
+
+
+def _normalise07(lw, shift=True, divide=True):
+    lw = np.asarray(lw, float)
+    with np.errstate(all="ignore"):
+        w = np.exp(lw - lw.max()) if shift else np.exp(lw)
+        return w / w.sum() if divide else w
+
+
+LAB07 = {
+    "sense": [
+        ("weights not normalised", lambda *a: _sense07(*a, normalise=False)),
+        ("likelihood added, not multiplied", lambda *a: _sense07(*a, add=True)),
+    ],
+    "move": [
+        ("moved the wrong way", lambda *a: _move07(*a, backwards=True)),
+        ("the motion noise left out", lambda *a: _move07(*a, noise=False)),
+    ],
+    "odometry_control": [
+        ("degrees", lambda a, b: _control07(a, b, degrees=True)),
+        ("atan2(dx, dy)", lambda a, b: _control07(a, b, swap=True)),
+        ("rotations not wrapped", lambda a, b: _control07(a, b, wrap=False)),
+    ],
+    "log_likelihoods": [
+        ("likelihoods multiplied until they underflow", lambda *a: _loglik07(*a, product=True)),
+        ("beam angles in the wrong frame", lambda *a: _loglik07(*a, rotate=False)),
+    ],
+    "normalize_log_weights": [
+        ("exp of the log-weights as they are", lambda lw: _normalise07(lw, shift=False)),
+        ("weights not normalised", lambda lw: _normalise07(lw, divide=False)),
+    ],
+    "should_resample": [
+        ("resampling every step", lambda w, t: True),
+        ("N_eff compared with the share itself",
+         lambda w, t: bool(1 / np.sum(np.asarray(w) ** 2) < t)),
+    ],
+    "low_variance_resample": [
+        ("a pointer on a boundary taken to the left", lambda w, n, r: np.searchsorted(
+            np.cumsum(np.asarray(w) / np.sum(w)), r + np.arange(n) / n, side="left")),
+    ],
+}
+
+
 # ------------------------------------------------------------------ lab 08 as students err
 
 def _ends(ranges, angle_min, inc, pose, rotate=True, keep_inf=False, in_laser=False):
@@ -646,7 +737,7 @@ LAB09 = {
 
 
 CATALOGUE = {"lab01": LAB01, "lab02": LAB02, "lab03": LAB03, "lab04": LAB04, "lab05": LAB05,
-             "lab08": LAB08, "lab09": LAB09}
+             "lab07": LAB07, "lab08": LAB08, "lab09": LAB09}
 COINCIDENT: dict[tuple[str, str], set[str]] = {
     # mistakes that give the same numbers on some cases: the check names both there
     ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
