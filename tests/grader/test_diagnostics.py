@@ -469,6 +469,72 @@ LAB05 = {
     ],
 }
 
+# ------------------------------------------------------------------ lab 06 as students err
+
+def _ok06(r, lo, hi):
+    r = np.asarray(r, float)
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(r) & (r >= lo) & (r <= hi)
+
+
+def _points06(r, amin, inc, lo, hi, T, mode="right"):
+    r = np.asarray(r, float)
+    a = amin + inc * np.arange(len(r))
+    ok = _ok06(r, lo, hi)
+    px, py = r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok])
+    x, y, th = T
+    if mode == "laser":
+        return np.column_stack([px, py])
+    if mode == "inverse":          # (x, y, θ) undone instead of applied
+        c, s = math.cos(th), math.sin(th)
+        qx, qy = px - x, py - y
+        return np.column_stack([c * qx + s * qy, -s * qx + c * qy])
+    if mode == "translate":
+        return np.column_stack([px + x, py + y])
+    c, s = math.cos(th), math.sin(th)
+    return np.column_stack([x + c * px - s * py, y + s * px + c * py])
+
+
+def _deskew06(r, angle, beam, ref, mode="right"):
+    p = np.array([r * math.cos(angle), r * math.sin(angle)])
+    if mode == "none":
+        return p
+    first, second = (ref, beam) if mode == "swap" else (beam, ref)
+    c, s = math.cos(first[2]), math.sin(first[2])
+    w = np.array([first[0] + c * p[0] - s * p[1], first[1] + s * p[0] + c * p[1]])
+    c, s = math.cos(second[2]), math.sin(second[2])
+    d = w - np.array(second[:2])
+    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+
+
+LAB06 = {
+    "beam_angles": [
+        ("linspace over n + 1 points",
+         lambda amin, inc, n: np.linspace(amin, amin + n * inc, n)),
+        ("degrees", lambda amin, inc, n: np.degrees(amin + inc * np.arange(n))),
+    ],
+    "valid_returns": [
+        ("range limits ignored", lambda r, lo, hi: np.isfinite(np.asarray(r, float))),
+        ("inf taken for a return", lambda r, lo, hi: np.nan_to_num(np.asarray(r, float)) > 0),
+    ],
+    "scan_to_points": [
+        ("points left in the laser's frame", lambda *a: _points06(*a, mode="laser")),
+        ("the mounting applied inverted", lambda *a: _points06(*a, mode="inverse")),
+        ("the mounting's rotation ignored", lambda *a: _points06(*a, mode="translate")),
+    ],
+    "deskew_beam": [
+        ("not de-skewed", lambda *a: _deskew06(*a, mode="none")),
+        ("the two poses swapped", lambda *a: _deskew06(*a, mode="swap")),
+    ],
+    "depth_to_range": [
+        ("depth along the optical axis taken as the range",
+         lambda z, u, fx, cx: np.asarray(z, float) * np.ones_like(np.asarray(u, float))),
+        ("only the sideways offset",
+         lambda z, u, fx, cx: np.abs((np.asarray(u, float) - cx) * np.asarray(z, float) / fx)),
+    ],
+}
+
+
 # ------------------------------------------------------------------ lab 07 as students err
 
 def _sense07(belief, world, z, hit, miss, normalise=True, add=False):
@@ -737,7 +803,7 @@ LAB09 = {
 
 
 CATALOGUE = {"lab01": LAB01, "lab02": LAB02, "lab03": LAB03, "lab04": LAB04, "lab05": LAB05,
-             "lab07": LAB07, "lab08": LAB08, "lab09": LAB09}
+             "lab06": LAB06, "lab07": LAB07, "lab08": LAB08, "lab09": LAB09}
 COINCIDENT: dict[tuple[str, str], set[str]] = {
     # mistakes that give the same numbers on some cases: the check names both there
     ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
@@ -750,6 +816,9 @@ COINCIDENT: dict[tuple[str, str], set[str]] = {
         {"distances in cells costed as metres"},
     ("inflate", "distances in cells costed as metres"):
         {"the inflation radius in metres against distances in cells"},
+    # Lab 06: without inf among the ranges, both slips keep the same out-of-range readings
+    ("valid_returns", "range limits ignored"): {"inf taken for a return"},
+    ("valid_returns", "inf taken for a return"): {"range limits ignored"},
     ("astar", "a diagonal step costing 1"): {"row and column swapped"},
     ("astar", "row and column swapped"): {"a diagonal step costing 1"},
 }
