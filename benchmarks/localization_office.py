@@ -18,8 +18,7 @@ Three experiments, each over seeded runs:
 * ``kidnap`` — tracking, then the robot is lifted 5 m back along the corridor at t = 21 s;
   the time until the same criterion holds again (augmented MCL's recovery on).
 
-Run ``python benchmarks/localization_office.py [--runs 20]``; the test
-``tests/kit/localization/test_office.py`` runs a short seeded version of the same code.
+Run ``python benchmarks/localization_office.py [--runs 20]``.
 """
 
 from __future__ import annotations
