@@ -100,7 +100,8 @@ def _run(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.bag}: no such bag")
     start = _initial(args.initial)
     params = load_parameters(args.params) if args.params else AmclParameters()
-    node = Amcl(maps.read_map(args.map), params, seed=args.seed)
+    grid = maps.read_map(args.map)
+    node = Amcl(grid, params, seed=args.seed)
     if start is None:
         node.initialize_global()
     else:
@@ -118,7 +119,7 @@ def _run(args: argparse.Namespace) -> int:
             bar.update(1)
     if not steps:
         raise ValueError(f"{args.bag}: no LaserScan on {args.scan_topic}")
-    _write_png(node_grid(args.map), steps, out / "localization.png")
+    _write_png(grid, steps, out / "localization.png")
     known = [s for s in steps if np.all(np.isfinite(s.pose))]
     last = f"; last pose ({known[-1].pose[0]:.2f}, {known[-1].pose[1]:.2f}, " \
            f"{known[-1].pose[2]:.2f}) ± ({known[-1].std[0]:.2f}, {known[-1].std[1]:.2f}, " \
@@ -126,11 +127,6 @@ def _run(args: argparse.Namespace) -> int:
     print(f"{len(steps)} scans, {node.updates} filter updates{last}; wrote {out}/poses.csv, "
           f"localization.png")
     return 0
-
-
-def node_grid(path: Path) -> Any:
-    """The map read again for the plot (the node keeps only its likelihood field)."""
-    return maps.read_map(path)
 
 
 def main(argv: list[str] | None = None) -> int:
