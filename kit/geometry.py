@@ -145,9 +145,13 @@ def yaw_to_quaternion(yaw: ArrayLike) -> FloatArray:
     >>> yaw_to_quaternion(np.pi).round(12).tolist()
     [0.0, 0.0, 1.0, 0.0]
     """
+    if isinstance(yaw, (float, int)):                 # the common scalar case, without stack
+        half = 0.5 * float(yaw)
+        return np.array([0.0, 0.0, math.sin(half), math.cos(half)])
     half = 0.5 * np.asarray(yaw, dtype=np.float64)
-    zeros = np.zeros_like(half)
-    return np.stack([zeros, zeros, np.sin(half), np.cos(half)], axis=-1)
+    out = np.zeros((*half.shape, 4))
+    out[..., 2], out[..., 3] = np.sin(half), np.cos(half)
+    return out
 
 
 def quaternion_to_yaw(quaternion: ArrayLike) -> FloatArray:

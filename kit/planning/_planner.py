@@ -99,11 +99,10 @@ def points_to_path(points: ArrayLike, frame_id: str = "map", stamp: msgs.Time | 
     yaw = np.arctan2(d[:, 1], d[:, 0]) if len(d) else np.zeros(0)
     last = final_yaw if final_yaw is not None else (float(yaw[-1]) if len(yaw) else 0.0)
     yaw = np.append(yaw, last)
+    q = geometry.yaw_to_quaternion(yaw).tolist()
     poses = tuple(
-        msgs.PoseStamped(header, msgs.Pose(msgs.Point(float(x), float(y), 0.0),
-                                           msgs.Quaternion(*map(float,
-                                                                geometry.yaw_to_quaternion(a)))))
-        for (x, y), a in zip(p, yaw, strict=True))
+        msgs.PoseStamped(header, msgs.Pose(msgs.Point(x, y, 0.0), msgs.Quaternion(*qi)))
+        for (x, y), qi in zip(p.tolist(), q, strict=True))
     return msgs.Path(header, poses)
 
 

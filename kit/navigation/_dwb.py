@@ -1,0 +1,352 @@
+"""A dynamic-window local planner in the design of Nav2's DWB controller.
+
+Every control period (1 / ``controller_frequency``):
+
+1. **The dynamic window** — the velocities reachable from the current ``(v, ω)`` within
+   ``sim_time`` at the robot's acceleration limits (``acc_lim_*``, ``decel_lim_*``), clipped
+   to ``[min_vel_x, max_vel_x]`` and ``±max_vel_theta``; ``vx_samples × vtheta_samples`` of
+   them (DWB's standard generator).
+2. **Forward simulation** — each sample driven for ``sim_time`` seconds, the velocity ramping
+   towards it at the acceleration limits, in steps of at most ``linear_granularity`` metres
+   and ``angular_granularity`` radians.
+3. **Critics** — each trajectory scored by DWB's critics, each with its scale:
+   ``BaseObstacle`` (the sum of the inflation costs under the trajectory; invalid when the
+   footprint meets a lethal cell), ``PathDist`` and ``GoalDist`` (distance of the last pose to
+   the path and to the local goal, in cells), ``PathAlign`` and ``GoalAlign`` (the same for a
+   point ``forward_point_distance`` ahead of the last pose, so the robot faces along the path;
+   off when the goal is within that distance plus ``xy_goal_tolerance`` — Nav2 turns them off
+   within ``forward_point_distance``, where a robot standing just outside the tolerance is
+   held still by a forward point that can only overshoot the path's end), ``RotateToGoal``
+   (once the robot has come within ``xy_goal_tolerance`` of the goal: first only samples
+   slower than now, scored by 5 v² and the heading error they end with; once slower than
+   ``trans_stopped_velocity`` only turns in place, scored by that error) and ``Oscillation``
+   (a trajectory that flips the sign of a command it flipped before, without having moved
+   ``oscillation_reset_dist``, is invalid).
+4. **The best** — the valid trajectory with the lowest weighted sum; none valid raises
+   :class:`~kit.navigation.ControlError` ("no valid trajectory").
+
+Parameter names and defaults are Nav2's. Two simplifications, stated: all trajectories have
+the same number of steps (that of the fastest sample), and the distance grids are Euclidean
+distance transforms (scipy) where DWB's MapGrid spreads 4-connected distances around
+obstacles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+
+from kit import geometry
+from kit.navigation._costmap import footprint_costs, outline_points
+from kit.navigation._path import ControlError, check_path, closest_index
+from kit.planning import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, Costmap
+from kit.robots import RobotDescription
+
+__all__ = ["CRITICS", "DwbController", "DwbParameters", "Trajectories", "dynamic_window"]
+
+FloatArray = NDArray[np.float64]
+
+CRITICS = ("BaseObstacle", "PathAlign", "PathDist", "GoalAlign", "GoalDist", "RotateToGoal",
+           "Oscillation")
+"""DWB's critics as the kit scores them, in Nav2's default order."""
+
+
+@dataclass(frozen=True)
+class DwbParameters:
+    """Nav2's DWB parameters (``FollowPath`` with ``dwb_core::DWBLocalPlanner``)."""
+
+    min_vel_x: float = 0.0
+    max_vel_x: float = 0.5
+    max_vel_theta: float = 1.0
+    acc_lim_x: float = 2.5
+    decel_lim_x: float = -2.5
+    acc_lim_theta: float = 3.2
+    decel_lim_theta: float = -3.2
+    vx_samples: int = 20
+    vtheta_samples: int = 20
+    sim_time: float = 1.7
+    linear_granularity: float = 0.05
+    angular_granularity: float = 0.025
+    controller_frequency: float = 20.0
+    forward_point_distance: float = 0.325
+    xy_goal_tolerance: float = 0.25
+    trans_stopped_velocity: float = 0.25
+    prune_distance: float = 2.0
+    oscillation_reset_dist: float = 0.05
+    oscillation_reset_angle: float = 0.2
+    scales: dict[str, float] = field(default_factory=lambda: {
+        "BaseObstacle": 0.02, "PathAlign": 32.0, "PathDist": 32.0, "GoalAlign": 24.0,
+        "GoalDist": 24.0, "RotateToGoal": 32.0, "Oscillation": 1.0})
+
+    def __post_init__(self) -> None:
+        for name in ("max_vel_x", "max_vel_theta", "acc_lim_x", "acc_lim_theta", "sim_time",
+                     "linear_granularity", "angular_granularity", "controller_frequency"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"DwbParameters.{name} must be a positive number; got "
+                                 f"{value!r}")
+        if self.decel_lim_x >= 0 or self.decel_lim_theta >= 0:
+            raise ValueError("decel_lim_x and decel_lim_theta are negative (Nav2's sign)")
+        if self.vx_samples < 1 or self.vtheta_samples < 1:
+            raise ValueError("vx_samples and vtheta_samples must be at least 1")
+        unknown = set(self.scales) - set(CRITICS)
+        if unknown:
+            raise ValueError(f"unknown critics {sorted(unknown)}; the kit's are {CRITICS}")
+
+    @classmethod
+    def for_robot(cls, robot: RobotDescription, **overrides: object) -> DwbParameters:
+        """Defaults with the robot's speed and acceleration limits (``hardware/robots``)."""
+        a = robot.max_linear_acceleration
+        base = cls(max_vel_x=robot.max_linear_velocity,
+                   max_vel_theta=min(1.0, robot.max_angular_velocity),
+                   acc_lim_x=a, decel_lim_x=-a)
+        return replace(base, **overrides)  # type: ignore[arg-type]
+
+
+def dynamic_window(velocity: ArrayLike, p: DwbParameters) -> tuple[FloatArray, FloatArray]:
+    """The sampled target velocities: ``(vx (S,), vθ (S,))``, S = ``vx_samples ×
+    vtheta_samples``.
+
+    As DWB's standard generator: the window is what the accelerations reach from the current
+    velocity within ``sim_time`` (``acc_lim`` up, ``decel_lim`` down), clipped to the limits;
+    each trajectory then ramps towards its target at those accelerations.
+
+    >>> vx, vth = dynamic_window((0.2, 0.0), DwbParameters(vx_samples=3, vtheta_samples=1,
+    ...                                                    acc_lim_x=0.1, decel_lim_x=-0.1))
+    >>> vx.round(3).tolist(), vth.tolist()
+    ([0.03, 0.2, 0.37], [0.0, 0.0, 0.0])
+    """
+    v, w = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
+    span = p.sim_time
+    lo_v = max(p.min_vel_x, v + p.decel_lim_x * span)
+    hi_v = min(p.max_vel_x, v + p.acc_lim_x * span)
+    if lo_v > hi_v:                       # outside the limits already: come back into them
+        lo_v = hi_v = min(max(v, p.min_vel_x), p.max_vel_x)
+    lo_w = max(-p.max_vel_theta, w + p.decel_lim_theta * span)
+    hi_w = min(p.max_vel_theta, w + p.acc_lim_theta * span)
+    if lo_w > hi_w:
+        lo_w = hi_w = min(max(w, -p.max_vel_theta), p.max_vel_theta)
+    vx = np.linspace(lo_v, hi_v, p.vx_samples) if p.vx_samples > 1 else np.array([hi_v])
+    vth = np.linspace(lo_w, hi_w, p.vtheta_samples) if p.vtheta_samples > 1 else \
+        np.array([0.5 * (lo_w + hi_w)])
+    if p.vtheta_samples > 1 and lo_w < 0.0 < hi_w:
+        vth[np.argmin(np.abs(vth))] = 0.0      # driving straight is always a candidate
+    gx, gth = np.meshgrid(vx, vth, indexing="ij")
+    return gx.ravel(), gth.ravel()
+
+
+@dataclass(frozen=True)
+class Trajectories:
+    """Sampled trajectories: ``velocities`` (S, 2) [m/s, rad/s], ``poses`` (S, T, 3), the
+    critics' ``scores`` (name → (S,)), ``valid`` (S,) and ``total`` (S,) (inf if invalid)."""
+
+    velocities: FloatArray
+    poses: FloatArray
+    scores: dict[str, FloatArray]
+    valid: NDArray[np.bool_]
+    total: FloatArray
+    reasons: dict[str, int]
+
+
+class DwbController:
+    """Nav2's DWB local planner over a local costmap.
+
+    ``set_plan(path, goal_yaw)`` then, each period, ``compute_velocity_commands(pose,
+    velocity, costmap)`` → ``(v, ω)``; the last scored :class:`Trajectories` stay in
+    ``last``.
+    """
+
+    def __init__(self, params: DwbParameters | None = None,
+                 footprint: ArrayLike | None = None, circumscribed_cost: int = 0) -> None:
+        self.params = params or DwbParameters()
+        self.circumscribed_cost = int(circumscribed_cost)
+        """Centres cheaper than this skip the footprint check (0: check every pose)."""
+        self.footprint = (np.asarray(footprint, dtype=np.float64) if footprint is not None
+                          else np.array([[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]]))
+        self.path = np.zeros((0, 2))
+        self.goal_yaw: float | None = None
+        self._index = 0
+        self._outline: FloatArray | None = None
+        self._outline_res = 0.0
+        self.last: Trajectories | None = None
+        self._flips: dict[str, int] = {}
+        self._last_sign = (0, 0)
+        self._since = np.zeros(3)
+        self._in_window = self._rotating = False
+
+    def set_plan(self, path: ArrayLike, goal_yaw: float | None = None) -> None:
+        """A new global path ((N, 2) [m] in the costmap's frame) and the goal's heading."""
+        self.path = check_path(path)
+        self.goal_yaw = goal_yaw
+        self._index = 0
+
+    def reset(self) -> None:
+        """Forget the oscillation history (Nav2 resets its critics on a new goal)."""
+        self._flips, self._last_sign = {}, (0, 0)
+        self._in_window = self._rotating = False
+
+    # ------------------------------------------------------------------ trajectories
+    def simulate(self, pose: FloatArray, vx: FloatArray, vth: FloatArray,
+                 velocity: ArrayLike = (0.0, 0.0)) -> FloatArray:
+        """Poses (S, T, 3) of each sample driven for ``sim_time`` from ``pose``: the velocity
+        ramps from ``velocity`` towards the sample at the acceleration limits, the pose
+        integrated step by step (Euler, as DWB's generator)."""
+        p = self.params
+        v0, w0 = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
+        reach = max(float(np.max(np.abs(vx))) * p.sim_time / p.linear_granularity,
+                    float(np.max(np.abs(vth))) * p.sim_time / p.angular_granularity, 1.0)
+        steps = math.ceil(reach)
+        dt = p.sim_time / steps
+        k = np.arange(1, steps + 1) * dt
+        v = v0 + np.clip((vx - v0)[:, None], p.decel_lim_x * k, p.acc_lim_x * k)
+        w = w0 + np.clip((vth - w0)[:, None], p.decel_lim_theta * k, p.acc_lim_theta * k)
+        th = pose[2] + np.cumsum(w * dt, axis=1)
+        heading = np.concatenate([np.full((len(vx), 1), pose[2]), th[:, :-1]], axis=1)
+        x = pose[0] + np.cumsum(v * np.cos(heading) * dt, axis=1)
+        y = pose[1] + np.cumsum(v * np.sin(heading) * dt, axis=1)
+        return np.stack([x, y, th], axis=-1)
+
+    # ------------------------------------------------------------------ the local plan
+    def local_plan(self, pose: FloatArray, costmap: Costmap) -> FloatArray:
+        """The global path from the point closest to the robot, up to ``prune_distance``
+        along it and no further than the costmap's edge."""
+        self._index = closest_index(self.path, pose, self._index, 2.0)
+        rest = self.path[self._index:]
+        along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(rest, axis=0).T))])
+        rest = rest[along <= self.params.prune_distance + 1e-9]
+        x0, y0 = costmap.origin
+        x1 = x0 + costmap.width * costmap.resolution
+        y1 = y0 + costmap.height * costmap.resolution
+        inside = (rest[:, 0] >= x0) & (rest[:, 0] < x1) & (rest[:, 1] >= y0) & \
+            (rest[:, 1] < y1)
+        first_out = np.flatnonzero(~inside)
+        return rest[:first_out[0]] if len(first_out) else rest
+
+    def _distance_grid(self, costmap: Costmap, points: FloatArray) -> FloatArray:
+        """Distance [cells] from each cell to the nearest of ``points``; lethal cells and
+        unknown ones far (the window's diagonal)."""
+        res = costmap.resolution
+        seed = np.ones(costmap.costs.shape, dtype=bool)
+        cols = np.floor((points[:, 0] - costmap.origin[0]) / res).astype(int)
+        rows = np.floor((points[:, 1] - costmap.origin[1]) / res).astype(int)
+        ok = (rows >= 0) & (rows < costmap.height) & (cols >= 0) & (cols < costmap.width)
+        seed[rows[ok], cols[ok]] = False
+        if seed.all():
+            raise ControlError("the path leaves the local costmap before it starts")
+        dist = ndimage.distance_transform_edt(seed)
+        dist[costmap.costs >= LETHAL_OBSTACLE] = float(np.hypot(*costmap.costs.shape))
+        return np.asarray(dist, dtype=np.float64)
+
+    @staticmethod
+    def _at(grid: FloatArray, costmap: Costmap, xy: FloatArray) -> FloatArray:
+        res = costmap.resolution
+        cols = np.floor((xy[..., 0] - costmap.origin[0]) / res).astype(int)
+        rows = np.floor((xy[..., 1] - costmap.origin[1]) / res).astype(int)
+        ok = (rows >= 0) & (rows < grid.shape[0]) & (cols >= 0) & (cols < grid.shape[1])
+        out = np.full(xy.shape[:-1], float(np.hypot(*grid.shape)))
+        out[ok] = grid[rows[ok], cols[ok]]
+        return out
+
+    # ------------------------------------------------------------------ scoring
+    def score(self, pose: FloatArray, velocity: ArrayLike, costmap: Costmap) -> Trajectories:
+        """Sample, simulate and score every trajectory (no command chosen)."""
+        p = self.params
+        if len(self.path) == 0:
+            raise ControlError("no path to follow")
+        vx, vth = dynamic_window(velocity, p)
+        poses = self.simulate(pose, vx, vth, velocity)
+        if self._outline is None or self._outline_res != costmap.resolution:
+            self._outline = outline_points(self.footprint, costmap.resolution)
+            self._outline_res = costmap.resolution
+        centre, edge = footprint_costs(costmap, poses, self._outline,
+                                       self.circumscribed_cost)
+        reasons: dict[str, int] = {}
+        hit = np.any((edge >= LETHAL_OBSTACLE) | (centre >= INSCRIBED_INFLATED_OBSTACLE),
+                     axis=1)
+        reasons["collision"] = int(hit.sum())
+        scores: dict[str, FloatArray] = {"BaseObstacle": centre.astype(float).sum(axis=1)}
+        local = self.local_plan(pose, costmap)
+        goal = self.path[-1]
+        v_now = float(np.asarray(velocity, dtype=float)[0])
+        self._in_window = self._in_window or \
+            math.hypot(goal[0] - pose[0], goal[1] - pose[1]) <= p.xy_goal_tolerance
+        self._rotating = self._rotating or (self._in_window and
+                                            abs(v_now) <= p.trans_stopped_velocity)
+        end = poses[:, -1, :]
+        ahead = end[:, :2] + p.forward_point_distance * np.column_stack(
+            [np.cos(end[:, 2]), np.sin(end[:, 2])])
+        path_grid = self._distance_grid(costmap, local)
+        goal_grid = self._distance_grid(costmap, local[-1:])
+        near_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1]) <= \
+            p.forward_point_distance + p.xy_goal_tolerance
+        scores["PathDist"] = self._at(path_grid, costmap, end[:, :2])
+        scores["GoalDist"] = self._at(goal_grid, costmap, end[:, :2])
+        zero = np.zeros(len(vx))
+        scores["PathAlign"] = zero if near_goal else self._at(path_grid, costmap, ahead)
+        scores["GoalAlign"] = zero if near_goal else self._at(goal_grid, costmap, ahead)
+        valid = ~hit
+        if self._in_window:
+            target = self.goal_yaw if self.goal_yaw is not None else float(pose[2])
+            rotation = np.abs(geometry.wrap_angle(target - end[:, 2]))
+            if self._rotating:                 # at the goal: turning in place only
+                moving = np.abs(vx) > 0.0
+                scores["RotateToGoal"] = rotation
+            else:                              # arriving: slow down, whatever else
+                moving = vx ** 2 >= v_now ** 2
+                scores["RotateToGoal"] = 5.0 * vx ** 2 + rotation
+            valid &= ~moving
+            reasons["moving near the goal"] = int(moving.sum())
+        else:
+            scores["RotateToGoal"] = zero
+        flips = self._oscillating(vx, vth)
+        valid &= ~flips
+        reasons["oscillation"] = int(flips.sum())
+        scores["Oscillation"] = zero
+        total = sum((p.scales.get(name, 0.0) * s for name, s in scores.items()),
+                    start=np.zeros(len(vx)))
+        total = np.where(valid, total, np.inf)
+        return Trajectories(np.column_stack([vx, vth]), poses, scores, valid, total, reasons)
+
+    def _oscillating(self, vx: FloatArray, vth: FloatArray) -> NDArray[np.bool_]:
+        """Samples that would flip a sign already flipped since the robot last moved on."""
+        bad = np.zeros(len(vx), dtype=bool)
+        sx, sw = self._last_sign
+        if self._flips.get("x") and sx:
+            bad |= np.sign(vx) == -sx
+        if self._flips.get("theta") and sw:
+            bad |= (np.sign(vth) == -sw) & (np.abs(vx) < 1e-3)
+        return bad
+
+    def _remember(self, pose: FloatArray, v: float, w: float) -> None:
+        sx = int(np.sign(v)) if abs(v) > 1e-3 else 0
+        sw = int(np.sign(w)) if abs(w) > 1e-3 else 0
+        last_x, last_w = self._last_sign
+        if sx and last_x and sx != last_x:
+            self._flips["x"] = 1
+        if sw and last_w and sw != last_w and abs(v) < 1e-3:
+            self._flips["theta"] = 1
+        moved = math.hypot(pose[0] - self._since[0], pose[1] - self._since[1])
+        turned = abs(float(geometry.wrap_angle(pose[2] - self._since[2])))
+        if moved > self.params.oscillation_reset_dist or \
+                (turned > self.params.oscillation_reset_angle and abs(v) > 1e-3):
+            self._flips = {}
+            self._since = pose.copy()
+        self._last_sign = (sx or last_x, sw or last_w)
+
+    def compute_velocity_commands(self, pose: ArrayLike, velocity: ArrayLike,
+                                  costmap: Costmap) -> tuple[float, float]:
+        """The best ``(v, ω)`` [m/s, rad/s]; :class:`ControlError` when none is valid."""
+        pose_ = geometry.check_pose(pose, "pose")
+        result = self.score(pose_, velocity, costmap)
+        self.last = result
+        if not np.any(result.valid):
+            why = ", ".join(f"{n} {k}" for k, n in result.reasons.items() if n)
+            raise ControlError(f"no valid trajectory among {len(result.valid)} ({why})")
+        best = int(np.argmin(result.total))
+        v, w = (float(x) for x in result.velocities[best])
+        self._remember(pose_, v, w)
+        return v, w

@@ -1,0 +1,274 @@
+"""Path following: pure pursuit, and Nav2's Regulated Pure Pursuit.
+
+Pure pursuit steers along the arc through the robot and the *carrot*, the point a lookahead
+distance ``L`` ahead on the path: in the robot's frame the carrot is ``(x, y)`` and the arc's
+curvature is ``κ = 2 y / (x² + y²)``, so ``ω = v κ`` (Coulter, 1992).
+
+Regulated Pure Pursuit (Macenski et al., 2023; Nav2's ``RegulatedPurePursuitController``) adds
+what a robot among people needs: the lookahead grows with speed (``L = v · lookahead_time``,
+clamped), the speed drops on tight curves (radius below ``regulated_linear_scaling_min_radius``)
+and near obstacles (the inflation cost under the robot), it slows down approaching the goal,
+it rotates in place towards the path when the carrot is far off its heading, and it refuses a
+command whose arc — or turn in place — would hit a lethal cell within
+``max_allowed_time_to_collision_up_to_carrot``.
+Parameter names and defaults are Nav2's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from kit import geometry
+from kit.navigation._costmap import collides_from, outline_points
+from kit.navigation._path import (
+    ControlError,
+    check_path,
+    closest_index,
+    lookahead_point,
+    remaining_length,
+)
+from kit.planning import INSCRIBED_INFLATED_OBSTACLE, Costmap
+from kit.robots import RobotDescription
+
+__all__ = ["PurePursuit", "RegulatedPurePursuit", "RppParameters", "arc_poses",
+           "pure_pursuit_curvature"]
+
+FloatArray = NDArray[np.float64]
+
+
+def pure_pursuit_curvature(pose: ArrayLike, carrot: ArrayLike) -> float:
+    """Curvature [1/m] of the arc from ``pose`` (x, y, θ) through ``carrot`` (x, y):
+    ``2 y / (x² + y²)`` with the carrot in the robot's frame (positive turns left).
+
+    >>> round(pure_pursuit_curvature((0.0, 0.0, 0.0), (1.0, 1.0)), 6)   # a quarter circle
+    1.0
+    """
+    p = geometry.check_pose(pose, "pose")
+    local = geometry.transform_points(geometry.inverse(p), np.asarray(carrot, float)[None, :2])
+    x, y = float(local[0, 0]), float(local[0, 1])
+    d2 = x * x + y * y
+    return 0.0 if d2 < 1e-12 else 2.0 * y / d2
+
+
+class PurePursuit:
+    """Plain pure pursuit at a constant speed with a fixed lookahead.
+
+    ``compute_velocity_commands(pose, velocity, costmap)`` returns ``(v, ω)`` [m/s, rad/s];
+    the costmap is not used (pure pursuit sees no obstacles), the angular speed is clipped to
+    ``max_angular_velocity``.
+    """
+
+    def __init__(self, speed: float = 0.3, lookahead: float = 0.6,
+                 max_angular_velocity: float = 2.0) -> None:
+        if not (speed > 0 and lookahead > 0 and max_angular_velocity > 0):
+            raise ValueError("speed, lookahead and max_angular_velocity must be positive")
+        self.speed, self.lookahead = float(speed), float(lookahead)
+        self.max_angular_velocity = float(max_angular_velocity)
+        self.path = np.zeros((0, 2))
+        self._index = 0
+
+    def set_plan(self, path: ArrayLike) -> None:
+        self.path = check_path(path)
+        self._index = 0
+
+    def compute_velocity_commands(self, pose: ArrayLike, velocity: ArrayLike = (0.0, 0.0),
+                                  costmap: Costmap | None = None) -> tuple[float, float]:
+        if len(self.path) == 0:
+            raise ControlError("no path to follow")
+        p = geometry.check_pose(pose, "pose")
+        self._index = closest_index(self.path, p, self._index, 2.0)
+        carrot = lookahead_point(self.path, p, self.lookahead, self._index)
+        w = self.speed * pure_pursuit_curvature(p, carrot)
+        return self.speed, float(np.clip(w, -self.max_angular_velocity,
+                                         self.max_angular_velocity))
+
+
+@dataclass(frozen=True)
+class RppParameters:
+    """Nav2's ``RegulatedPurePursuitController`` parameters (names, meaning, defaults)."""
+
+    desired_linear_vel: float = 0.5
+    lookahead_dist: float = 0.6
+    min_lookahead_dist: float = 0.3
+    max_lookahead_dist: float = 0.9
+    lookahead_time: float = 1.5
+    rotate_to_heading_angular_vel: float = 1.8
+    use_velocity_scaled_lookahead_dist: bool = False
+    min_approach_linear_velocity: float = 0.05
+    approach_velocity_scaling_dist: float = 0.6
+    use_collision_detection: bool = True
+    max_allowed_time_to_collision_up_to_carrot: float = 1.0
+    use_regulated_linear_velocity_scaling: bool = True
+    use_cost_regulated_linear_velocity_scaling: bool = False
+    regulated_linear_scaling_min_radius: float = 0.9
+    regulated_linear_scaling_min_speed: float = 0.25
+    use_rotate_to_heading: bool = True
+    rotate_to_heading_min_angle: float = 0.785
+    max_angular_accel: float = 3.2
+    cost_scaling_dist: float = 0.3
+    cost_scaling_gain: float = 1.0
+    inflation_cost_scaling_factor: float = 3.0
+    max_linear_accel: float = 2.5
+    controller_frequency: float = 20.0
+
+    def __post_init__(self) -> None:
+        for name in ("desired_linear_vel", "lookahead_dist", "min_lookahead_dist",
+                     "max_lookahead_dist", "lookahead_time", "rotate_to_heading_angular_vel",
+                     "controller_frequency", "max_angular_accel", "max_linear_accel"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"RppParameters.{name} must be a positive number; got "
+                                 f"{value!r}")
+        if self.min_lookahead_dist > self.max_lookahead_dist:
+            raise ValueError("min_lookahead_dist must not exceed max_lookahead_dist")
+
+    @classmethod
+    def for_robot(cls, robot: RobotDescription, **overrides: float | bool) -> RppParameters:
+        """Defaults with the robot's speed and acceleration limits."""
+        base = cls(desired_linear_vel=robot.max_linear_velocity,
+                   max_linear_accel=robot.max_linear_acceleration,
+                   rotate_to_heading_angular_vel=min(1.8, robot.max_angular_velocity))
+        return replace(base, **overrides)  # type: ignore[arg-type]
+
+
+class RegulatedPurePursuit:
+    """Nav2's Regulated Pure Pursuit controller.
+
+    >>> c = RegulatedPurePursuit()
+    >>> c.set_plan([(0.0, 0.0), (5.0, 0.0)])
+    >>> v, w = c.compute_velocity_commands((0.0, 0.0, 0.0), (0.5, 0.0))
+    >>> round(v, 3), round(w, 3)
+    (0.5, 0.0)
+    """
+
+    def __init__(self, params: RppParameters | None = None,
+                 footprint: ArrayLike | None = None) -> None:
+        self.params = params or RppParameters()
+        self.footprint = (np.asarray(footprint, dtype=np.float64) if footprint is not None
+                          else np.array([[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]]))
+        self.path = np.zeros((0, 2))
+        self.goal_yaw: float | None = None
+        self._index = 0
+        self._outline: FloatArray | None = None
+        self.last_carrot = np.zeros(2)
+
+    def set_plan(self, path: ArrayLike, goal_yaw: float | None = None) -> None:
+        """A new path ((N, 2) [m], map frame) and, optionally, the goal's heading."""
+        self.path = check_path(path)
+        self.goal_yaw = goal_yaw
+        self._index = 0
+
+    def lookahead(self, speed: float) -> float:
+        p = self.params
+        if not p.use_velocity_scaled_lookahead_dist:
+            return p.lookahead_dist
+        return float(np.clip(abs(speed) * p.lookahead_time, p.min_lookahead_dist,
+                             p.max_lookahead_dist))
+
+    def compute_velocity_commands(self, pose: ArrayLike, velocity: ArrayLike,
+                                  costmap: Costmap | None = None) -> tuple[float, float]:
+        """``(v, ω)`` [m/s, rad/s] from the robot's ``pose`` (x, y, θ) and ``velocity``
+        (v, ω); raises :class:`ControlError` when the arc ahead would collide."""
+        if len(self.path) == 0:
+            raise ControlError("no path to follow")
+        p = self.params
+        pose_ = geometry.check_pose(pose, "pose")
+        v_now, w_now = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
+        self._index = closest_index(self.path, pose_, self._index, 2.0)
+        carrot = lookahead_point(self.path, pose_, self.lookahead(v_now), self._index)
+        self.last_carrot = carrot
+        local = geometry.transform_points(geometry.inverse(pose_), carrot[None, :])[0]
+        dt = 1.0 / p.controller_frequency
+        remaining = remaining_length(self.path, pose_, self._index)
+        if p.use_rotate_to_heading:
+            to_goal = (self.goal_yaw is not None and remaining < 0.25)
+            angle = (float(geometry.wrap_angle(self.goal_yaw - pose_[2])) if to_goal
+                     and self.goal_yaw is not None else math.atan2(local[1], local[0]))
+            if to_goal or abs(angle) > p.rotate_to_heading_min_angle:
+                w = self._rotate(angle, w_now, dt)
+                if p.use_collision_detection and costmap is not None:
+                    self._check_collision(pose_, 0.0, w, 0.0, costmap)
+                return 0.0, w
+        d2 = float(local @ local)
+        curvature = 0.0 if d2 < 1e-12 else 2.0 * float(local[1]) / d2
+        v = self._regulate(curvature, remaining, pose_, costmap)
+        v = float(np.clip(v, v_now - p.max_linear_accel * dt, v_now + p.max_linear_accel * dt))
+        v = max(v, 0.0)
+        w = v * curvature
+        if p.use_collision_detection and costmap is not None:
+            self._check_collision(pose_, v, w, math.sqrt(d2), costmap)
+        return v, w
+
+    def _rotate(self, angle: float, w_now: float, dt: float) -> float:
+        p = self.params
+        target = math.copysign(p.rotate_to_heading_angular_vel, angle)
+        # do not overshoot: no faster than what stops on the heading at max_angular_accel
+        target = math.copysign(min(abs(target), math.sqrt(2 * p.max_angular_accel *
+                                                          abs(angle))), angle)
+        step = p.max_angular_accel * dt
+        return float(np.clip(target, w_now - step, w_now + step))
+
+    def _regulate(self, curvature: float, remaining: float, pose: FloatArray,
+                  costmap: Costmap | None) -> float:
+        p = self.params
+        v = p.desired_linear_vel
+        if p.use_regulated_linear_velocity_scaling and abs(curvature) > 1e-9:
+            radius = 1.0 / abs(curvature)
+            if radius < p.regulated_linear_scaling_min_radius:
+                v *= radius / p.regulated_linear_scaling_min_radius
+        if p.use_cost_regulated_linear_velocity_scaling and costmap is not None:
+            row, col = costmap.world_to_cell(float(pose[0]), float(pose[1]), "robot")
+            cost = float(costmap.costs[row, col])
+            if 0 < cost < INSCRIBED_INFLATED_OBSTACLE:
+                inscribed = float(np.min(np.hypot(*self.footprint.T)))
+                distance = -math.log(cost / (INSCRIBED_INFLATED_OBSTACLE - 1)) / \
+                    p.inflation_cost_scaling_factor + inscribed
+                if distance < p.cost_scaling_dist:
+                    v *= p.cost_scaling_gain * distance / p.cost_scaling_dist
+        if v < p.desired_linear_vel:
+            v = max(v, p.regulated_linear_scaling_min_speed)
+        if remaining < p.approach_velocity_scaling_dist:
+            v = max(min(v, v * remaining / p.approach_velocity_scaling_dist),
+                    p.min_approach_linear_velocity)
+        return v
+
+    def _check_collision(self, pose: FloatArray, v: float, w: float, carrot_distance: float,
+                         costmap: Costmap) -> None:
+        p = self.params
+        if self._outline is None:
+            self._outline = outline_points(self.footprint, costmap.resolution)
+        horizon = p.max_allowed_time_to_collision_up_to_carrot
+        if abs(v) > 1e-6:
+            horizon = min(horizon, carrot_distance / abs(v))
+        elif abs(w) < 1e-6:
+            return
+        step = costmap.resolution / max(abs(v), 1e-6)
+        if abs(w) > 1e-6:
+            step = min(step, 0.05 / abs(w))   # a turn sweeps the corners faster than the centre
+        times = np.arange(step, horizon + 1e-9, step)
+        if len(times) == 0:
+            return
+        poses = arc_poses(pose, v, w, times)
+        hit = collides_from(costmap, pose, poses, self._outline)
+        if np.any(hit):
+            t = float(times[int(np.argmax(hit))])
+            raise ControlError(f"collision ahead: the footprint meets an obstacle in {t:.2f} s "
+                               f"on this arc")
+
+
+def arc_poses(pose: FloatArray, v: float, w: float, times: FloatArray) -> FloatArray:
+    """Poses (T, 3) after driving ``(v, ω)`` from ``pose`` for each of ``times``."""
+    th = pose[2] + w * times
+    if abs(w) < 1e-9:
+        x = pose[0] + v * times * math.cos(pose[2])
+        y = pose[1] + v * times * math.sin(pose[2])
+    else:
+        r = v / w
+        x = pose[0] + r * (np.sin(th) - math.sin(pose[2]))
+        y = pose[1] - r * (np.cos(th) - math.cos(pose[2]))
+    return np.column_stack([np.broadcast_to(x, times.shape), np.broadcast_to(y, times.shape),
+                            th])

@@ -1,0 +1,335 @@
+"""kit.navigation against geometry, Nav2's definitions and closed loops on a kinematic robot."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from kit import msgs
+from kit.navigation import (
+    FAILED,
+    RUNNING,
+    SUCCEEDED,
+    BackUp,
+    ControlError,
+    DwbController,
+    DwbParameters,
+    GoalChecker,
+    NavigationCostmap,
+    Navigator,
+    NavigatorParameters,
+    ProgressChecker,
+    RegulatedPurePursuit,
+    RppParameters,
+    Spin,
+    arc_poses,
+    check_path,
+    closest_index,
+    dynamic_window,
+    footprint_collides,
+    lookahead_point,
+    outline_points,
+    pure_pursuit_curvature,
+)
+from kit.planning import LETHAL_OBSTACLE, Costmap, ObstacleLayer
+from kit.robots import load
+
+SQUARE = np.array([[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]])
+
+
+def free_grid(width: float = 10.0, height: float = 4.0, res: float = 0.05,
+              boxes: tuple[tuple[float, float, float, float], ...] = ()) -> msgs.OccupancyGrid:
+    """A walled rectangle (walls one cell thick) with filled boxes (x0, y0, x1, y1)."""
+    w, h = round(width / res), round(height / res)
+    cells = np.zeros((h, w), dtype=np.int8)
+    cells[0, :] = cells[-1, :] = cells[:, 0] = cells[:, -1] = 100
+    for x0, y0, x1, y1 in boxes:
+        cells[int(y0 / res):math.ceil(y1 / res), int(x0 / res):math.ceil(x1 / res)] = 100
+    info = msgs.MapMetaData(resolution=res, width=w, height=h, origin=msgs.Pose())
+    return msgs.OccupancyGrid(msgs.Header(frame_id="map"), info, cells.ravel())
+
+
+# ---------------------------------------------------------------- pure pursuit geometry
+
+@pytest.mark.parametrize("carrot", [(1.0, 0.5), (0.3, -0.8), (-0.5, 1.0), (2.0, 0.01)])
+def test_the_pure_pursuit_arc_passes_through_the_robot_and_the_carrot(carrot):
+    pose = np.array([1.0, -2.0, 0.7])
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    world = pose[:2] + np.array([c * carrot[0] - s * carrot[1], s * carrot[0] + c * carrot[1]])
+    k = pure_pursuit_curvature(pose, world)
+    # the circle's centre is 1/k to the robot's left; the carrot lies on it
+    centre = np.array([0.0, 1.0 / k])
+    assert math.isclose(float(np.hypot(*(np.array(carrot) - centre))), abs(1.0 / k),
+                        rel_tol=1e-9)
+    # driven at 1 m/s, the arc reaches the carrot after turning twice its bearing
+    end = arc_poses(pose, 1.0, k, np.array([2 * math.atan2(carrot[1], carrot[0]) / k]))[0]
+    assert np.allclose(end[:2], world, atol=1e-9)
+
+
+def test_the_carrot_is_a_lookahead_away_on_the_path():
+    path = check_path([(0.0, 0.0), (1.0, 0.0), (1.0, 2.0), (3.0, 2.0)])
+    xy = np.array([0.9, 0.1])
+    carrot = lookahead_point(path, xy, 0.8, closest_index(path, xy))
+    assert math.isclose(float(np.hypot(*(carrot - xy))), 0.8, rel_tol=1e-9)
+    assert math.isclose(carrot[0], 1.0)          # on the second segment, x = 1
+    near_end = np.array([2.9, 2.0])
+    assert np.allclose(lookahead_point(path, near_end, 1.0, closest_index(path, near_end)),
+                       path[-1])
+
+
+def test_paths_with_nan_or_the_wrong_shape_are_refused():
+    with pytest.raises(ValueError, match="finite"):
+        check_path([(0.0, 0.0), (np.nan, 1.0)])
+    with pytest.raises(ValueError, match=r"\(N, 2\)"):
+        check_path([1.0, 2.0, 3.0])
+
+
+# ---------------------------------------------------------------- regulated pure pursuit
+
+def test_rpp_drives_straight_at_the_desired_speed_and_slows_on_tight_curves():
+    c = RegulatedPurePursuit(RppParameters(use_rotate_to_heading=False,
+                                           max_linear_accel=100.0))
+    c.set_plan([(x, 0.0) for x in np.linspace(0, 5, 51)])
+    v, w = c.compute_velocity_commands((0.0, 0.0, 0.0), (0.5, 0.0))
+    assert (v, w) == (0.5, 0.0)
+    # a circle of radius 0.45 m (half Nav2's min radius 0.9): half speed, ω = v / R
+    R = 0.45
+    t = np.linspace(0, math.pi, 200)
+    c.set_plan(np.column_stack([R * np.sin(t), R - R * np.cos(t)]))
+    v, w = c.compute_velocity_commands((0.0, 0.0, 0.0), (0.5, 0.0))
+    carrot = c.last_carrot
+    k = pure_pursuit_curvature((0.0, 0.0, 0.0), carrot)
+    expected = max(0.5 * (1 / k) / 0.9, 0.25)
+    assert v == pytest.approx(expected, rel=1e-9)
+    assert w == pytest.approx(v * k, rel=1e-9)
+
+
+def test_rpp_slows_approaching_the_goal_and_rotates_to_a_path_behind_it():
+    p = RppParameters(max_linear_accel=100.0)
+    c = RegulatedPurePursuit(p)
+    c.set_plan([(0.0, 0.0), (0.3, 0.0)])
+    v, _ = c.compute_velocity_commands((0.0, 0.0, 0.0), (0.5, 0.0))
+    assert v == pytest.approx(0.5 * 0.3 / p.approach_velocity_scaling_dist)
+    c.set_plan([(0.0, 0.0), (-2.0, 0.0)])
+    v, w = c.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0))
+    assert v == 0.0 and 0 < abs(w) <= p.max_angular_accel / p.controller_frequency + 1e-12
+
+
+def test_rpp_refuses_an_arc_into_a_wall():
+    costs = np.zeros((40, 40), np.uint8)
+    costs[:, 12] = LETHAL_OBSTACLE               # a wall at x = 0.6 m
+    c = RegulatedPurePursuit(RppParameters(max_linear_accel=100.0), SQUARE)
+    c.set_plan([(x, 1.0) for x in np.linspace(0.2, 1.9, 20)])
+    with pytest.raises(ControlError, match="collision ahead"):
+        c.compute_velocity_commands((0.2, 1.0, 0.0), (0.5, 0.0), Costmap(costs, 0.05))
+
+
+# ---------------------------------------------------------------- DWB
+
+def test_the_dynamic_window_is_what_the_accelerations_reach_in_sim_time():
+    p = DwbParameters(vx_samples=5, vtheta_samples=3, acc_lim_x=0.1, decel_lim_x=-0.2,
+                      acc_lim_theta=0.5, decel_lim_theta=-0.5, sim_time=1.0)
+    vx, vth = dynamic_window((0.3, 0.2), p)
+    assert vx.min() == pytest.approx(0.1) and vx.max() == pytest.approx(0.4)
+    assert vth.min() == pytest.approx(-0.3) and vth.max() == pytest.approx(0.7)
+    assert len(vx) == 15
+
+
+def test_dwb_trajectories_at_constant_velocity_follow_the_exact_arc():
+    ctrl = DwbController(DwbParameters(linear_granularity=0.001, angular_granularity=0.001))
+    pose = np.array([1.0, 2.0, 0.3])
+    poses = ctrl.simulate(pose, np.array([0.4]), np.array([0.6]), (0.4, 0.6))[0]
+    times = np.linspace(0, ctrl.params.sim_time, len(poses) + 1)[1:]
+    exact = arc_poses(pose, 0.4, 0.6, times)
+    assert np.max(np.abs(poses - exact)) < 2e-3     # Euler steps of 1.7 ms
+
+
+def test_dwb_never_drives_into_an_obstacle_across_its_path():
+    """A path straight through a box the planner did not know: DWB follows it up to the box
+    and stops short; no pose it drives touches the box (replanning is the navigator's job)."""
+    grid = free_grid(boxes=((3.0, 1.6, 3.4, 2.4),))
+    cm = NavigationCostmap(grid, SQUARE)
+    costmap = cm.costmap()
+    ctrl = DwbController(DwbParameters(max_vel_x=0.5, acc_lim_x=1.0, decel_lim_x=-1.0),
+                         SQUARE, cm.circumscribed_cost)
+    ctrl.set_plan([(x, 2.0) for x in np.linspace(0.5, 6.0, 111)], 0.0)
+    pose, vel = np.array([0.5, 2.0, 0.0]), np.zeros(2)
+    outline = outline_points(SQUARE, 0.05)
+    for _ in range(300):
+        try:
+            v, w = ctrl.compute_velocity_commands(pose, vel, costmap)
+        except ControlError:
+            v, w = 0.0, 0.0
+        pose = arc_poses(pose, v, w, np.array([0.05]))[0]
+        vel = np.array([v, w])
+        assert not footprint_collides(costmap, pose[None], outline)[0]
+    assert 2.0 < pose[0] < 3.0 - 0.2                # came close, stopped before the box
+
+
+def test_dwb_refuses_every_command_when_walled_in():
+    costs = np.zeros((40, 40), np.uint8)
+    costs[16, :] = costs[24, :] = costs[:, 16] = costs[:, 24] = LETHAL_OBSTACLE  # touching
+    ctrl = DwbController(footprint=SQUARE)
+    ctrl.set_plan([(1.0, 1.0), (1.5, 1.0)], 0.0)
+    with pytest.raises(ControlError, match="no valid trajectory"):
+        ctrl.compute_velocity_commands((1.0, 1.0, 0.0), (0.0, 0.0),
+                                       Costmap(costs, 0.05))
+
+
+def test_dwb_parameters_are_checked():
+    with pytest.raises(ValueError, match="decel_lim_x"):
+        DwbParameters(decel_lim_x=1.0)
+    with pytest.raises(ValueError, match="unknown critics"):
+        DwbParameters(scales={"Twirling": 1.0})
+
+
+# ---------------------------------------------------------------- costmaps
+
+def test_the_vectorised_obstacle_layer_marks_what_nav2s_marks():
+    """The same returns into the kit's ObstacleLayer (Nav2's Bresenham, beam by beam) and
+    into the navigation costmap (all beams at once): the same cells cleared and marked."""
+    rng = np.random.default_rng(3)
+    angles = rng.uniform(-math.pi, math.pi, 90)
+    ranges = rng.uniform(0.5, 2.4, 90)
+    sensor = (2.5, 2.5)
+    points = np.column_stack([sensor[0] + ranges * np.cos(angles),
+                              sensor[1] + ranges * np.sin(angles)])
+    ref = ObstacleLayer((100, 100), 0.05, (0.0, 0.0))
+    ref.costs[:] = LETHAL_OBSTACLE
+    from kit.planning import ObservationSource
+    ref.clear(points, sensor, ObservationSource(clearing=True))
+    ref.mark(points, sensor, ObservationSource())
+    ours = NavigationCostmap(None, SQUARE, rolling_window=True, width=5.0, height=5.0)
+    ours._roll(*sensor)
+    ours.obstacles[:] = LETHAL_OBSTACLE
+    ours.add_points(points, sensor)
+    assert ours.origin == (0.0, 0.0)
+    assert np.array_equal(ours.obstacles, ref.costs)
+    assert 1000 < np.count_nonzero(ours.obstacles == 0) < 9000     # cleared a good part
+
+
+def test_a_rolling_window_keeps_what_it_saw_where_it_was():
+    cm = NavigationCostmap(None, SQUARE, rolling_window=True, width=3.0, height=3.0)
+    cm.update_points([[1.0, 0.5]], (0.0, 0.0), (0.0, 0.0))
+    cm.update_points(np.zeros((0, 2)), (0.7, 0.3), (0.7, 0.3))       # the robot moves on
+    costmap = cm.costmap()
+    row, col = costmap.world_to_cell(1.0, 0.5)
+    assert costmap.costs[row, col] == LETHAL_OBSTACLE
+    cm.update_points(np.zeros((0, 2)), (5.0, 0.3), (5.0, 0.3))       # far away: forgotten
+    assert not np.any(cm.obstacles == LETHAL_OBSTACLE)
+
+
+# ---------------------------------------------------------------- behaviours and checkers
+
+def test_spin_turns_its_angle_and_backup_will_not_back_into_a_wall():
+    spin = Spin(spin_dist=1.57, footprint=SQUARE)
+    pose, t = np.array([1.0, 1.0, 0.0]), 0.0
+    spin.start(t, pose)
+    status = RUNNING
+    while status == RUNNING and t < 10:
+        status, (_v, w) = spin.tick(t, pose, None)
+        pose = pose + np.array([0.0, 0.0, w * 0.05])
+        t += 0.05
+    assert status == SUCCEEDED and abs(pose[2] - 1.57) < 0.06
+    costs = np.zeros((40, 40), np.uint8)
+    costs[:, 10] = LETHAL_OBSTACLE                 # a wall 0.3 m behind the robot's back
+    back = BackUp(footprint=SQUARE)
+    back.start(0.0, (0.8, 1.0, 0.0))
+    status, cmd = back.tick(0.0, (0.8, 1.0, 0.0), Costmap(costs, 0.05))
+    assert status == FAILED and cmd == (0.0, 0.0) and "behind" in back.reason
+
+
+def test_the_progress_checker_and_the_stateful_goal_checker():
+    pc = ProgressChecker(0.5, 10.0)
+    assert pc.check(0.0, (0, 0)) and pc.check(9.9, (0.4, 0.0))
+    assert not pc.check(10.1, (0.4, 0.0))
+    gc = GoalChecker(0.25, 0.25, stateful=True)
+    goal = (1.0, 0.0, math.pi / 2)
+    assert not gc.is_goal_reached((0.9, 0.0, 0.0), goal)           # there, but facing east
+    assert gc.is_goal_reached((1.3, 0.0, 1.5), goal)                # drifted, yet turned
+
+
+# ---------------------------------------------------------------- the navigator in a loop
+
+def drive(nav: Navigator, pose, seconds: float, obstacles=None):
+    """A kinematic robot under the navigator at 20 Hz; ``obstacles(t)`` gives the points a
+    scan sees at time t. Returns the poses."""
+    pose = np.asarray(pose, dtype=float)
+    vel = np.zeros(2)
+    trail = [pose]
+    for k in range(int(seconds * 20)):
+        t = k / 20
+        if k % 4 == 0 and obstacles is not None:
+            nav.on_points(obstacles(t), pose[:2], pose)
+        v, w = nav.tick(t, pose, vel)
+        pose = arc_poses(pose, v, w, np.array([0.05]))[0]
+        vel = np.array([v, w])
+        trail.append(pose)
+        if nav.status != RUNNING:
+            break
+    return np.array(trail)
+
+
+@pytest.mark.parametrize("controller", ["rpp", "dwb"])
+def test_the_navigator_reaches_a_goal_round_a_wall(controller):
+    grid = free_grid(boxes=((4.0, 0.0, 4.3, 2.8),))
+    nav = Navigator(grid, load("uiabot"), controller=controller)
+    nav.navigate_to_pose((8.0, 1.0, 0.0))
+    trail = drive(nav, (1.0, 1.0, 0.0), 90.0)
+    assert nav.status == SUCCEEDED, nav.reason
+    assert np.hypot(*(trail[-1, :2] - (8.0, 1.0))) <= 0.25
+    assert np.max(trail[:, 1]) > 2.8                 # went round the wall's end
+
+
+def test_an_obstacle_only_the_lidar_sees_is_planned_round():
+    grid = free_grid()
+    box = np.array([[3.0 + 0.05 * i, y] for i in range(8) for y in np.linspace(0.05, 2.9, 58)])
+    nav = Navigator(grid, load("uiabot"))
+    nav.navigate_to_pose((8.0, 1.0, 0.0))
+    trail = drive(nav, (1.0, 1.0, 0.0), 90.0, lambda t: box)
+    assert nav.status == SUCCEEDED, nav.reason
+    assert np.max(trail[:, 1]) > 2.9
+
+
+def test_an_unreachable_goal_ends_with_the_planners_reason_and_no_collision():
+    grid = free_grid(boxes=((6.0, 0.0, 6.3, 4.0),))   # a wall across the whole room
+    nav = Navigator(grid, load("uiabot"))
+    nav.navigate_to_pose((8.0, 2.0, 0.0))
+    trail = drive(nav, (1.0, 2.0, 0.0), 300.0)
+    assert nav.status == FAILED
+    assert "planning failed" in nav.reason and "no valid path" in nav.reason
+    costmap = nav.global_costmap.costmap()
+    assert not np.any(footprint_collides(costmap, trail, outline_points(SQUARE, 0.05)))
+    assert [e.detail for e in nav.events if e.kind == "recovery"][:4] == \
+        ["clear costmaps", "spin", "wait", "backup"]
+
+
+def test_a_robot_pinned_by_a_person_waits_then_goes_on():
+    grid = free_grid(width=12.0, height=2.0)
+    nav = Navigator(grid, load("uiabot"), params=NavigatorParameters(moving_margin=0.0))
+    nav.navigate_to_pose((10.0, 1.0, 0.0))
+    person = np.array([[3.0 + 0.25 * math.cos(a), 1.0 + 0.25 * math.sin(a)]
+                       for a in np.linspace(0, 2 * math.pi, 24)])
+    wall = np.column_stack([np.full(20, 3.0), np.linspace(0.05, 1.95, 20)])
+
+    def seen(t):                                    # a person and a row of people: blocked
+        return np.vstack([person, wall]) if t < 25.0 else np.zeros((0, 2))
+
+    trail = drive(nav, (1.0, 1.0, 0.0), 120.0, seen)
+    assert nav.status == SUCCEEDED, nav.reason
+    kinds = [e.detail for e in nav.events if e.kind == "recovery"]
+    assert "wait" in kinds
+    blocked = trail[: 25 * 20]
+    assert np.max(blocked[:, 0]) < 3.0 - 0.2         # never touched the people while there
+
+
+def test_the_navigator_refuses_no_goals_and_unknown_controllers():
+    nav = Navigator(free_grid(), load("uiabot"))
+    with pytest.raises(ValueError, match="at least one goal"):
+        nav.navigate_through_poses([])
+    with pytest.raises(ValueError, match="'dwb', 'rpp'"):
+        Navigator(free_grid(), load("uiabot"), controller="teb")
+    with pytest.raises(ValueError):
+        nav.navigate_to_pose((1.0, np.nan, 0.0))
