@@ -1,7 +1,7 @@
 # The kit's three commands. Each one creates .venv from pyproject.toml on first use.
 #   make lab    copy labs/ into work/ (never overwriting your files) and start JupyterLab there
 #   make reset LAB=01   a fresh copy of one lab in work/, your old file kept beside it
-#   make demo   headless see-think-act run: the Uiabot's route through the office (PNG + bag)
+#   make demo   the whole see-think-act loop: SLAM map of the office, then navigation on it among people
 #   make test   ruff, mypy, pytest (with the labs executed) and nbval on solutions/
 # Instructors: make solutions re-executes solutions/ (KIT_FAST=1) and regenerates labs/.
 

@@ -13,8 +13,9 @@ Assumptions, stated once (``Physics``): tyre–floor friction 0.8, oil 0.05, 70 
 on the driven wheels, servos that can spin a wheel's rim up at 6 m/s².
 
 Pedestrians are discs of 0.25 m and 70 kg that walk their routes at seeded speeds with the
-same kind of foot traction, stepping aside for robots that come close; they push and can be
-pushed, and the lidar sees them.
+same kind of foot traction, stepping aside for robots that come close (and round one ahead of
+them, on the side away from it, never stepping on towards one an arm's length away); they
+push and can be pushed, and the lidar sees them.
 """
 
 from __future__ import annotations
@@ -331,17 +332,54 @@ class Simulation:
             vx, vy = ((gx - px) / dist * p.speed, (gy - py) / dist * p.speed) if dist > 1e-9 \
                 else (0.0, 0.0)
             # people keep out of robots' way: a push away from any robot within 1.5 m,
-            # stronger the closer it is (a "social force")
+            # stronger the closer it is (a "social force"), and a step sideways round a
+            # robot ahead of them (without it a person walking straight at a robot stops
+            # against it, pushed back as hard as they push on)
+            ux, uy = (vx / p.speed, vy / p.speed) if dist > 1e-9 else (0.0, 0.0)
             for rx, ry in robots:
                 ax, ay = px - rx, py - ry
                 gap = math.hypot(ax, ay)
                 if 1e-6 < gap < 1.5:
-                    push = (1.5 - gap) / gap
+                    push = (1.5 - gap) / gap * (2.0 if gap < 0.9 else 1.0)   # harder when near
                     vx, vy = vx + ax * push, vy + ay * push
+                    if -(ax * ux + ay * uy) > 0.5 * gap:      # the robot within ±60° ahead
+                        # step away from the side the robot is on (right when dead ahead),
+                        # unless a wall there leaves no room to pass: then the other way
+                        away = -1.0 if ux * ay - uy * ax > 0.0 else 1.0   # +1: to the right
+                        if self._room(px, py, uy * away, -ux * away) < 0.8 <= \
+                                self._room(px, py, -uy * away, ux * away):
+                            away = -away
+                        side = p.speed * (1.5 - gap) / 1.5 * away
+                        vx, vy = vx + uy * side, vy - ux * side
+            for rx, ry in robots:
+                # nobody walks on into a robot an arm's length away: the part of their step
+                # towards it goes
+                ax, ay = px - rx, py - ry
+                gap = math.hypot(ax, ay)
+                if 1e-6 < gap < 0.9:
+                    toward = -(vx * ax + vy * ay) / gap
+                    if toward > 0.0:
+                        vx, vy = vx + ax / gap * toward, vy + ay / gap * toward
             speed = math.hypot(vx, vy)
             if speed > 1.5:
                 vx, vy = vx * 1.5 / speed, vy * 1.5 / speed
             p.ground.velocity = (vx, vy)
+
+    def _room(self, x: float, y: float, dx: float, dy: float, reach: float = 1.5) -> float:
+        """Free distance [m] from (x, y) along the unit direction (dx, dy) to the nearest wall
+        (up to ``reach``): how far a person can step that way."""
+        seg = self.world.segments
+        if len(seg) == 0:
+            return reach
+        ex, ey = seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1]
+        denom = dx * ey - dy * ex
+        ok = np.abs(denom) > 1e-12
+        safe = np.where(ok, denom, 1.0)
+        wx, wy = seg[:, 0] - x, seg[:, 1] - y
+        t = (wx * ey - wy * ex) / safe             # along the ray
+        u = (wx * dy - wy * dx) / safe             # along the segment
+        hit = ok & (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
+        return float(min(reach, t[hit].min())) if np.any(hit) else reach
 
     def _set_command(self, r: _Robot, cmd: Command) -> None:
         d = r.description

@@ -1,0 +1,445 @@
+"""Navigation scenarios: goal sequences in the aisle and the office among walking people,
+seeded episodes, and the metrics navigation papers report.
+
+One episode: the robot starts at the route's start, a :class:`NavigationNode` (the kit's
+:class:`~kit.navigation.Navigator` with a localization source) is given the route's goals one
+after the other (``NavigateToPose`` each), and per goal the runner gathers
+
+``episode, goal, reached, seconds, path_length, shortest_length, collisions_static,
+collisions_people, min_person_distance, reason``
+
+— the time from the goal being given to the navigator reporting it reached, the path the
+robot really drove, the shortest collision-free path for its footprint (any-angle, on the
+world's true walls, glass included), the contacts the simulator counted with walls, boxes
+and glass and with people, and the smallest gap between the robot's footprint and a person's
+body (0 at contact). A goal not reached within its time limit, or given up by the navigator,
+ends with ``reached`` 0 and the reason; the next goal is then given from where the robot is.
+
+Localization, as the Uiabot paper's tests: ``truth`` (the simulator's pose: navigation alone
+measured), ``amcl`` (the kit's particle filter on the map a lidar sees — no glass — from the
+known start, with wheel odometry), ``slam`` (the kit's SLAM building the map while the robot
+navigates on it, its ``map → odom`` with the odometry).
+
+``python -m sim navigate --world office|aisle --robot uiabot|igv --episodes N --seed S
+[--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass] [--keepout]
+--out FILE.csv``
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from kit import geometry, msgs, perception
+from kit.localization import Amcl, AmclParameters
+from kit.navigation import RUNNING, SUCCEEDED, NavigationCostmap, Navigator, arc_poses
+from kit.planning import (
+    FREE_SPACE,
+    INSCRIBED_INFLATED_OBSTACLE,
+    LETHAL_OBSTACLE,
+    Costmap,
+    PlanningError,
+    ThetaStarPlanner,
+    compute_path_to_pose,
+    path_length,
+    points_to_path,
+)
+from kit.planning import path_to_points as _points
+from kit.progress import progress
+from kit.robots import RobotDescription
+from kit.tf import RigidTransform
+from sim.runner import Node, Published, Runner, WheelOdometryNode, odometry_pose
+from sim.simulation import Simulation
+from sim.world import World, load_world
+
+__all__ = ["COLUMNS", "ROUTES", "GoalResult", "NavigationNode", "Route", "episode",
+           "navigate", "write_table"]
+
+FloatArray = NDArray[np.float64]
+HALF_PI = math.pi / 2
+
+COLUMNS = ("episode", "goal", "reached", "seconds", "path_length", "shortest_length",
+           "collisions_static", "collisions_people", "min_person_distance", "reason")
+"""The table's columns, in order (the header's first line)."""
+
+
+@dataclass(frozen=True)
+class Route:
+    """A world, a start pose and goals ``(x, y, yaw)`` visited in order, and its people."""
+
+    world: str
+    start: tuple[float, float, float]
+    goals: tuple[tuple[float, float, float], ...]
+    people: int
+    description: str
+
+
+ROUTES: dict[tuple[str, str], Route] = {
+    ("office", "tour"): Route(
+        "office", (1.0, 6.0, 0.0),
+        ((15.0, 9.5, HALF_PI), (9.0, 2.5, -HALF_PI), (3.0, 9.5, HALF_PI),
+         (17.5, 2.5, 0.0), (1.5, 6.0, math.pi)),
+        5, "the corridor, the north-east office, the middle south room, the north-west "
+           "office, the south-east room and back, among five people walking the corridor "
+           "both ways and into the rooms"),
+    ("office", "glass"): Route(
+        "office", (6.0, 9.5, 0.0), ((15.0, 9.5, 0.0),), 0,
+        "from the north-west office to the north-east one: straight through the glass "
+        "meeting room on a map made by a lidar, round by the corridor with a keep-out mask"),
+    ("aisle", "tour"): Route(
+        "aisle", (0.75, 0.75, 0.0), ((29.25, 30.5, HALF_PI), (1.0, 0.75, math.pi)), 4,
+        "the 60 m aisle to its far end past the static boxes and back, among four people "
+        "walking it both ways"),
+}
+"""The scenarios by (world, route)."""
+
+
+@dataclass
+class GoalResult:
+    """One row of the table."""
+
+    episode: int
+    goal: int
+    reached: bool
+    seconds: float
+    path_length: float
+    shortest_length: float
+    collisions_static: int
+    collisions_people: int
+    min_person_distance: float
+    reason: str = ""
+
+    def row(self) -> list[Any]:
+        return [self.episode, self.goal, int(self.reached), f"{self.seconds:.2f}",
+                f"{self.path_length:.3f}", f"{self.shortest_length:.3f}",
+                self.collisions_static, self.collisions_people,
+                f"{self.min_person_distance:.3f}", self.reason]
+
+
+# ---------------------------------------------------------------- localization sources
+
+class TruthLocalization:
+    """The simulator's own pose (no estimation error: navigation alone is measured)."""
+
+    name = "truth"
+
+    def start(self, sim: Simulation, robot: int, odom_pose: FloatArray) -> None:
+        self._sim, self._robot = sim, robot
+
+    def on_scan(self, scan: msgs.LaserScan, odom_pose: FloatArray) -> None:
+        pass
+
+    def pose(self, odom_pose: FloatArray) -> FloatArray:
+        return self._sim.ground_truth(self._robot).pose
+
+
+class AmclLocalization:
+    """The kit's AMCL on ``grid`` from the known start, with the wheel odometry."""
+
+    name = "amcl"
+
+    def __init__(self, grid: msgs.OccupancyGrid, seed: int,
+                 params: AmclParameters | None = None) -> None:
+        self.grid = grid
+        self.params = params or AmclParameters(
+            base_frame_id="base_link", laser_max_range=12.0, max_particles=2000,
+            min_particles=500, laser_model_type="likelihood_field_prob", sigma_hit=0.3,
+            update_min_d=0.1, update_min_a=0.2)
+        self.seed = seed
+
+    def start(self, sim: Simulation, robot: int, odom_pose: FloatArray) -> None:
+        self.amcl = Amcl(self.grid, self.params, seed=self.seed)
+        self.amcl.initialize(sim.ground_truth(robot).pose,
+                             np.diag([0.05 ** 2, 0.05 ** 2, math.radians(3) ** 2]))
+        self.mount = _laser_mount(sim.description(robot))
+        self.map_to_odom = geometry.compose(sim.ground_truth(robot).pose,
+                                            geometry.inverse(odom_pose))
+
+    def on_scan(self, scan: msgs.LaserScan, odom_pose: FloatArray) -> None:
+        if self.amcl.process(scan, odom_pose, self.mount) and self.amcl.map_to_odom is not None:
+            self.map_to_odom = self.amcl.map_to_odom
+
+    def pose(self, odom_pose: FloatArray) -> FloatArray:
+        return geometry.compose(self.map_to_odom, odom_pose)
+
+
+def _laser_mount(robot: RobotDescription) -> RigidTransform:
+    joint = robot.joint("laser_joint")
+    return RigidTransform.from_pose2d([float(joint.xyz[0]), float(joint.xyz[1]),
+                                       float(joint.rpy[2])])
+
+
+# ---------------------------------------------------------------- the node
+
+class NavigationNode(Node):
+    """The navigation stack as one node: localization, costmaps, planner, controller,
+    recoveries; it drives the route's goals in turn and gathers each goal's metrics.
+
+    Subscribes ``/scan`` and ``/odom``; publishes ``/cmd_vel`` at the controller's 20 Hz and
+    ``/plan`` (``nav_msgs/Path``) when it replans and ``map → odom`` on ``/tf`` with every
+    scan (from the localization).
+    """
+
+    subscriptions = ("/scan", "/odom")
+    rate = 20.0
+
+    def __init__(self, navigator: Navigator, localization: Any, goals: Sequence[ArrayLike],
+                 time_limits: Sequence[float], episode: int = 0,
+                 shortest: Sequence[float] = ()) -> None:
+        self.navigator = navigator
+        self.localization = localization
+        self.goals = [geometry.check_pose(g, "goal") for g in goals]
+        self.time_limits = list(time_limits)
+        self.shortest = list(shortest)
+        self.episode = episode
+        self.results: list[GoalResult] = []
+        self.trail: list[FloatArray] = []
+        self.done = False
+
+    def start(self, sim: Simulation, robot: int) -> Published:
+        self.sim, self.robot = sim, robot
+        joint = sim.description(robot).joint("laser_joint")
+        self.mount_pose = np.array([joint.xyz[0], joint.xyz[1], joint.rpy[2]], dtype=float)
+        self.odom_pose = sim.ground_truth(robot).pose.copy()
+        self.velocity = np.zeros(2)
+        self.localization.start(sim, robot, self.odom_pose)
+        self.index = -1
+        self._next_goal(sim.time)
+        return ()
+
+    def _next_goal(self, time: float) -> None:
+        self.index += 1
+        if self.index >= len(self.goals):
+            self.done = True
+            return
+        self.goal_start = time
+        self.collisions_before = len(self.sim.collisions)
+        self.distance = 0.0
+        self.min_gap = math.inf
+        self.last_xy = self.sim.ground_truth(self.robot).pose[:2].copy()
+        self.navigator.navigate_to_pose(self.goals[self.index], time)
+
+    def on_message(self, topic: str, message: Any, time: float) -> Published:
+        if topic == "/odom":
+            self.odom_pose = odometry_pose(message)
+            self.velocity = np.array([message.twist.twist.linear.x,
+                                      message.twist.twist.angular.z])
+            return ()
+        self.localization.on_scan(message, self.odom_pose)
+        base = self.localization.pose(self.odom_pose)
+        points, sensor = deskewed_points(message, base, self.velocity, self.mount_pose, time)
+        self.navigator.on_points(points, sensor, base)
+        map_to_odom = geometry.compose(base, geometry.inverse(self.odom_pose))
+        tf = msgs.TransformStamped(msgs.Header(msgs.Time.from_sec(time), "map"), "odom",
+                                   RigidTransform.from_pose2d(map_to_odom).to_msg())
+        return [("/tf", msgs.TFMessage((tf,)))]
+
+    def on_tick(self, time: float) -> Published:
+        if self.done:
+            return [("/cmd_vel", msgs.Twist())]
+        self._measure()
+        pose = self.localization.pose(self.odom_pose)
+        before = len(self.navigator.events)
+        v, w = self.navigator.tick(time, pose, self.velocity)
+        out: list[tuple[str, Any]] = []
+        if any(e.kind == "plan" for e in self.navigator.events[before:]):
+            out.append(("/plan", points_to_path(self.navigator.path, "map",
+                                                msgs.Time.from_sec(time))))
+        status = self.navigator.status
+        limit = self.time_limits[self.index]
+        if status != RUNNING or time - self.goal_start > limit:
+            reason = "" if status == SUCCEEDED else (self.navigator.reason if status != RUNNING
+                                                     else f"time limit ({limit:.0f} s)")
+            self._finish(time, status == SUCCEEDED, reason)
+            v, w = 0.0, 0.0
+        out.append(("/cmd_vel", msgs.Twist(msgs.Vector3(v, 0.0, 0.0), msgs.Vector3(0, 0, w))))
+        return out
+
+    def _measure(self) -> None:
+        truth = self.sim.ground_truth(self.robot).pose
+        self.trail.append(truth.copy())
+        self.distance += float(np.hypot(*(truth[:2] - self.last_xy)))
+        self.last_xy = truth[:2].copy()
+        people = self.sim.people_positions()
+        if len(people):
+            polygon = geometry.transform_points(truth, self.sim.description(self.robot)
+                                                .footprint)
+            self.min_gap = min(self.min_gap, float(np.min(
+                polygon_distance(polygon, people))) - 0.25)
+
+    def _finish(self, time: float, reached: bool, reason: str) -> None:
+        new = [c for c in self.sim.collisions[self.collisions_before:] if c.robot == self.robot]
+        self.results.append(GoalResult(
+            self.episode, self.index + 1, reached, time - self.goal_start, self.distance,
+            self.shortest[self.index] if self.index < len(self.shortest) else math.nan,
+            sum(c.other == "wall" for c in new), sum(c.other == "person" for c in new),
+            max(self.min_gap, 0.0) if math.isfinite(self.min_gap) else math.nan, reason))
+        self._next_goal(time)
+
+
+def deskewed_points(scan: msgs.LaserScan, pose: FloatArray, velocity: ArrayLike,
+                    mount: FloatArray, now: float) -> tuple[FloatArray, FloatArray]:
+    """The scan's valid returns in the map frame, each from where the scanner was when its
+    beam was taken — the robot's ``pose`` at ``now`` driven back along its current
+    ``velocity`` (v, ω) to the beam's time — and the scanner's position now."""
+    valid = perception.valid_returns(scan)
+    r = np.asarray(scan.ranges, dtype=float)[valid]
+    angles = perception.beam_angles(scan)[valid]
+    times = perception.beam_times(scan)[valid] - now
+    v, w = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
+    base = arc_poses(pose, v, w, times)
+    c, s = np.cos(base[:, 2]), np.sin(base[:, 2])
+    lx = base[:, 0] + c * mount[0] - s * mount[1]
+    ly = base[:, 1] + s * mount[0] + c * mount[1]
+    heading = base[:, 2] + mount[2] + angles
+    points = np.column_stack([lx + r * np.cos(heading), ly + r * np.sin(heading)])
+    sensor = geometry.compose(pose, mount)[:2]
+    return points, sensor
+
+
+def polygon_distance(polygon: ArrayLike, points: ArrayLike) -> FloatArray:
+    """Distance [m] from each of ``points`` (P, 2) to the polygon (N, 2) — 0 inside it."""
+    poly = np.asarray(polygon, dtype=float)
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    a, b = poly, np.roll(poly, -1, axis=0)
+    ab = b - a
+    ap = pts[:, None, :] - a[None, :, :]
+    t = np.clip(np.einsum("pnk,nk->pn", ap, ab) / np.einsum("nk,nk->n", ab, ab), 0.0, 1.0)
+    closest = a[None] + t[..., None] * ab[None]
+    d = np.hypot(*(pts[:, None, :] - closest).transpose(2, 0, 1)).min(axis=1)
+    # inside: an odd number of edge crossings of a ray to +x
+    y0, y1 = a[:, 1][None], b[:, 1][None]
+    px, py = pts[:, 0:1], pts[:, 1:2]
+    crosses = ((y0 > py) != (y1 > py)) & (
+        px < a[:, 0][None] + (py - y0) * (b[:, 0] - a[:, 0])[None] / np.where(
+            y1 == y0, 1.0, y1 - y0))
+    inside = crosses.sum(axis=1) % 2 == 1
+    return np.where(inside, 0.0, d)
+
+
+# ---------------------------------------------------------------- episodes
+
+@dataclass
+class EpisodeSetup:
+    """What every episode of a scenario shares: the maps, the shortest paths."""
+
+    route: Route
+    robot: str
+    world: World
+    nav_grid: msgs.OccupancyGrid
+    keepout: msgs.OccupancyGrid | None
+    shortest: list[float] = field(default_factory=list)
+
+
+def setup(world: str = "office", robot: str = "uiabot", route: str = "tour",
+          keepout: bool | None = None) -> EpisodeSetup:
+    """The scenario's maps (the lidar's: no glass; the glass as a keep-out mask when asked —
+    by default for every route but ``glass``, which shows what happens without) and the
+    shortest path of every goal."""
+    key = (world, route)
+    if key not in ROUTES:
+        raise ValueError(f"no route {route!r} in world {world!r}; the scenarios are "
+                         f"{sorted(ROUTES)}")
+    r = ROUTES[key]
+    w = load_world(r.world)
+    if keepout is None:
+        keepout = route != "glass" and bool(np.any(w.segment_glass))
+    s = EpisodeSetup(r, robot, w, w.occupancy_grid(0.05, layer="lidar"),
+                     w.occupancy_grid(0.05, layer="glass") if keepout else None)
+    s.shortest = shortest_lengths(w, robot, r)
+    return s
+
+
+def shortest_lengths(world: World, robot: str, route: Route) -> list[float]:
+    """Any-angle (Theta*) shortest collision-free length [m] of each leg of the route on the
+    world's true walls (glass included), for the robot's footprint."""
+    from kit.robots import load as load_robot
+
+    d = load_robot(robot)
+    inflated = NavigationCostmap(world.occupancy_grid(0.05, layer="all"),
+                                 d.footprint).costmap()
+    # where the footprint's inscribed circle fits, free; elsewhere lethal: pure geometry
+    costmap = Costmap(np.where(inflated.costs >= INSCRIBED_INFLATED_OBSTACLE,
+                               LETHAL_OBSTACLE, FREE_SPACE).astype(np.uint8),
+                      inflated.resolution, inflated.origin)
+    out = []
+    poses = [route.start, *route.goals]
+    for a, b in itertools.pairwise(poses):
+        try:
+            result = compute_path_to_pose(a, b, costmap, planner=ThetaStarPlanner())
+            out.append(path_length(_points(result.path)) if result.ok else math.nan)
+        except PlanningError:
+            out.append(math.nan)
+    return out
+
+
+def episode(s: EpisodeSetup, index: int, seed: int, localization: str = "truth",
+            controller: str = "rpp") -> list[GoalResult]:
+    """One seeded episode; the route's rows."""
+    route = s.route
+    sim = Simulation(world=s.world, robot=s.robot, seed=seed, people=route.people,
+                     start=route.start)
+    d = sim.description()
+    nav = Navigator(s.nav_grid, d, controller=controller, keepout=s.keepout)
+    if localization == "truth":
+        loc: Any = TruthLocalization()
+    elif localization == "amcl":
+        loc = AmclLocalization(s.nav_grid, seed)
+    else:
+        raise ValueError(f"localization is 'truth' or 'amcl'; got {localization!r}")
+    cruise = d.max_linear_velocity
+    limits = [30.0 + 4.0 * (x if math.isfinite(x) else 30.0) / cruise for x in s.shortest]
+    node = NavigationNode(nav, loc, route.goals, limits, index, s.shortest)
+    runner = Runner(sim, [WheelOdometryNode(), node], record_rate=1.0)
+    runner.run(sum(limits) + 1.0, until=lambda r: node.done)
+    return node.results
+
+
+def navigate(world: str = "office", robot: str = "uiabot", episodes: int = 20, seed: int = 0,
+             localization: str = "truth", controller: str = "rpp", route: str = "tour",
+             keepout: bool | None = None, bar: bool = True) -> list[GoalResult]:
+    """Seeded episodes ``seed, seed + 1, …``; every goal's row."""
+    if episodes < 1:
+        raise ValueError(f"episodes must be at least 1; got {episodes}")
+    s = setup(world, robot, route, keepout)
+    rows: list[GoalResult] = []
+    indices = range(episodes)
+    for i in progress(indices, desc=f"{world} episodes", total=episodes) if bar else indices:
+        rows.extend(episode(s, i, seed + i, localization, controller))
+    return rows
+
+
+def write_table(rows: Sequence[GoalResult], path: str | Path) -> Path:
+    """The rows as CSV, header first."""
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with out.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(COLUMNS)
+        writer.writerows(r.row() for r in rows)
+    return out
+
+
+def summary(rows: Sequence[GoalResult], cruise: float) -> dict[str, float]:
+    """The issue's figures: share of goals reached, of episodes without a collision with a
+    person, static collisions, and the median of time / (shortest / cruise)."""
+    episodes = sorted({r.episode for r in rows})
+    clean = [e for e in episodes if not any(r.collisions_people for r in rows
+                                            if r.episode == e)]
+    ratios = [r.seconds / (r.shortest_length / cruise) for r in rows
+              if r.reached and r.shortest_length > 0]
+    gaps = [r.min_person_distance for r in rows if math.isfinite(r.min_person_distance)]
+    return {"goals": len(rows), "reached": float(np.mean([r.reached for r in rows])),
+            "episodes": len(episodes),
+            "episodes_without_person_collision": len(clean) / max(1, len(episodes)),
+            "collisions_static": float(sum(r.collisions_static for r in rows)),
+            "median_time_ratio": float(np.median(ratios)) if ratios else math.nan,
+            "min_person_distance": min(gaps) if gaps else math.nan}

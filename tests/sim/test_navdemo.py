@@ -1,0 +1,24 @@
+"""``make demo``: the whole loop — SLAM map, then navigation on it with AMCL among people."""
+
+from __future__ import annotations
+
+import pytest
+
+from kit.bag import read_bag
+from kit.maps import read_map
+from sim import navdemo
+
+
+@pytest.mark.slow
+def test_the_demo_maps_the_office_then_navigates_it_and_writes_its_files(tmp_path, capsys):
+    assert navdemo.main(tmp_path, seed=7) == 0
+    out = capsys.readouterr().out
+    grid = read_map(tmp_path / "demo_map.yaml")
+    assert 0.04 < grid.info.resolution < 0.06 and grid.info.width > 300
+    reached = int(out.split("AMCL among 5 people: ")[1].split(" of ")[0])
+    assert reached >= 2, out                 # the seeded run reaches all 3 (see the note)
+    assert "0 contacts with walls" in out
+    assert (tmp_path / "demo_loop.png").stat().st_size > 30_000
+    assert "<script" in (tmp_path / "demo_loop.html").read_text(encoding="utf-8")
+    topics = {t for t, _, _ in read_bag(tmp_path / "demo_loop")}
+    assert {"/map", "/scan", "/odom", "/tf", "/tf_static", "/plan", "/cmd_vel"} <= topics
