@@ -91,6 +91,10 @@ def judge(exercise: Exercise, case: Case, got: Any) -> CaseResult:
 def run_case(exercise: Exercise, fn: Callable[..., Any], case: Case) -> CaseResult:
     """One public case: the student's function with the references refusing, then the
     verdict (computed outside that scope, with the real references)."""
+    if exercise.harness:                       # closed loop: the harness runs fn
+        from grader.worker import harnessed
+
+        fn = harnessed(fn, exercise.harness)
     try:
         got = guard.call_refusing(fn, *case.args, **case.kwargs)
     except NotImplementedError:

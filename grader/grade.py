@@ -55,7 +55,7 @@ from grader.submissions import Notebook, read_notebook, student_id
 
 __all__ = ["DEFAULT_MEMORY_MB", "DEFAULT_TIMEOUT", "classify", "grade_notebook",
            "grade_submissions", "guarded_modules", "plan_cases", "run_submission",
-           "score_exercise"]
+           "score_exercise", "session_budget"]
 
 DEFAULT_TIMEOUT = 120.0
 DEFAULT_MEMORY_MB = 2048
@@ -112,13 +112,18 @@ def _requests(spec: LabSpec, notebook: Notebook, plan: Plan, timeout: float
         "modules": guarded_modules(names),
         "blocked": names,
         "cells": [dict(c) for c in notebook.cells],
+        # a cell that never ends (an example calling the student's endless loop) loses its own
+        # half of the budget, not the grading of every exercise
+        "cell_time_limit": timeout / 2,
         # each exercise may lose at most one case to an endless loop: half the budget in all
         "case_time_limit": min(10.0, timeout / (2 * max(1, len(spec.exercises)))),
-        "exercises": [{"id": ex.id, "function": ex.function, "cases": _encoded(plan[ex.id][0])}
+        "exercises": [{"id": ex.id, "function": ex.function, "cases": _encoded(plan[ex.id][0]),
+                       "harness": ex.harness, "time_limit": ex.time_limit}
                       for ex in spec.exercises],
     }
     second = {"exercises": [{"id": ex.id, "function": ex.function,
-                             "cases": _encoded(plan[ex.id][1])} for ex in spec.exercises]}
+                             "cases": _encoded(plan[ex.id][1]), "harness": ex.harness,
+                             "time_limit": ex.time_limit} for ex in spec.exercises]}
     return first, second
 
 
@@ -132,15 +137,25 @@ def worker_env(layer: str) -> dict[str, str]:
     return env
 
 
+def session_budget(spec: LabSpec, plan: Plan, timeout: float) -> float:
+    """The worker's whole wall-time budget: ``timeout`` for the notebook and its quick cases,
+    plus, for each exercise with its own ``time_limit`` (a closed-loop episode), that limit for
+    every one of its cases, so that a class's slow but honest controllers all finish."""
+    return timeout + sum(ex.time_limit * (len(plan[ex.id][0]) + len(plan[ex.id][1]))
+                         for ex in spec.exercises if ex.time_limit)
+
+
 def run_submission(spec: LabSpec, notebook: Notebook, plan: Plan, limits: Limits,
                    timeout: float, layer: str) -> tuple[Run, str]:
-    """Run one notebook in a fresh sandbox; returns what happened and the layer."""
+    """Run one notebook in a fresh sandbox within :func:`session_budget`; returns what
+    happened and the layer."""
     first, second = _requests(spec, notebook, plan, timeout)
     stubs = {entry["path"]: stub_source(module, spec.name)
              for module, entry in first["modules"].items()}
     box = Sandbox.create(layer, limits, worker_env(layer),
                          files={notebook.path.name: notebook.text}, stubs=stubs)
-    return run_worker(box, first, lambda public: second, timeout), layer
+    return run_worker(box, first, lambda public: second,
+                      session_budget(spec, plan, timeout)), layer
 
 
 # ------------------------------------------------------------------ 5. scoring
@@ -294,6 +309,10 @@ def classify(run: Run, layer: str, limits: Limits, timeout: float) -> tuple[str,
     if any(e.get("kind") == "memory" for e in errors if isinstance(e, dict)):
         return "memory", (f"ran out of memory (limit {limits.memory_mb} MB); graded as far "
                           f"as it ran")
+    endless = [e for e in errors if isinstance(e, dict) and e.get("kind") == "timeout"]
+    if endless:
+        return "timeout", (f"cell {endless[0].get('cell')}: {endless[0].get('error')}; the "
+                           f"cells after it ran and the exercises were graded")
     if max(run.stdout_bytes, run.stderr_bytes) >= limits.file_mb * 1024 * 1024:
         return "output limit", (f"printed more than {limits.file_mb} MB; the rest was dropped; "
                                 f"graded as far as it ran")
@@ -356,13 +375,16 @@ def _grade(path: Path, spec: LabSpec, who: str, named: bool, timeout: float, mem
                                 practice=practice)
     who = who if named else (notebook.student or who)
     plan = plan_cases(spec, who, secret)
-    limits = Limits(memory_mb=memory_mb, cpu_seconds=int(timeout) + 1)
+    budget = session_budget(spec, plan, timeout)
+    limits = Limits(memory_mb=memory_mb, cpu_seconds=int(budget) + 1)
     layer = layer or detect_layer()
     run, layer = run_submission(spec, notebook, plan, limits, timeout, layer)
     if stopping():  # its sandbox was killed by the interruption, not by the submission
         raise Interrupted("grading is being stopped")
-    status, reason = classify(run, layer, limits, timeout)
+    status, reason = classify(run, layer, limits, budget)
     limit = min(10.0, timeout / (2 * max(1, len(spec.exercises))))
+    if any(ex.time_limit for ex in spec.exercises):
+        limit = max(limit, *(ex.time_limit for ex in spec.exercises))
     return SubmissionResult(who, str(path), status, reason,
                             _exercises(spec, plan, run, status, reason, limit),
                             _cell_errors(run), layer, notebook.sha256, practice)

@@ -72,6 +72,13 @@ class Exercise:
     diagnostics: tuple[Diagnostic, ...] = ()
     blocked: tuple[str, ...] = ()
     """``module:attribute`` names made unusable inside a submission while it is graded."""
+    harness: str = ""
+    """Closed-loop grading: ``"module:function"`` (importable in the sandbox, e.g. a
+    simulator episode) called as ``harness(student_function, *case.args)`` instead of the
+    student's function itself; what it returns is compared with ``reference(*case.args)``."""
+    time_limit: float = 0.0
+    """Seconds per case (0: the grader's default, at most 10 s); a harness running a
+    simulated episode needs longer."""
 
     def hidden_cases(self, seed: int) -> tuple[Case, ...]:
         return tuple(self.hidden(np.random.default_rng(seed)))

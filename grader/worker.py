@@ -22,6 +22,7 @@ A process the submission forks never answers for the worker: it leaves at once.
 from __future__ import annotations
 
 import builtins
+import importlib
 import importlib.abc
 import importlib.util
 import inspect
@@ -140,15 +141,28 @@ def describe_cell_error(cell: dict[str, Any], exc: BaseException) -> dict[str, A
     return {**_where(cell, line), "kind": kind, "error": _short(text)}
 
 
-def run_cells(cells: list[dict[str, Any]], namespace: dict[str, Any]) -> list[dict[str, Any]]:
+def run_cells(cells: list[dict[str, Any]], namespace: dict[str, Any],
+              cell_time_limit: float = 0.0) -> list[dict[str, Any]]:
+    """Execute the notebook's code cells in order; each cell that fails (or runs past
+    ``cell_time_limit`` seconds, when given) becomes an error record and the next cell runs."""
     errors = []
     for cell in cells:
         cell["file"] = f"<cell {cell['position']}>"
         try:
             code = compile(strip_magics(cell["source"]), cell["file"], "exec")
-            exec(code, namespace)
+            if cell_time_limit > 0:
+                signal.signal(signal.SIGALRM, _on_alarm)
+                signal.setitimer(signal.ITIMER_REAL, cell_time_limit)
+            try:
+                exec(code, namespace)
+            finally:
+                signal.setitimer(signal.ITIMER_REAL, 0)
         except (Exception, SystemExit, CaseTimeout) as exc:
-            errors.append(describe_cell_error(cell, exc))
+            error = describe_cell_error(cell, exc)
+            if error["kind"] == "timeout":
+                error["error"] = (f"the cell did not finish within {cell_time_limit:g} s "
+                                  f"(an endless loop?)")
+            errors.append(error)
         _forked_child_leaves()
     return errors
 
@@ -229,8 +243,22 @@ def call_case(fn: Any, case: dict[str, Any], time_limit: float, public: bool) ->
         _forked_child_leaves()
 
 
+def harnessed(fn: Any, harness: str) -> Any:
+    """``fn`` itself, or, for closed-loop grading, ``harness(fn, ...)`` (``module:function``)."""
+    if not harness:
+        return fn
+    module, _, name = harness.partition(":")
+    run = getattr(importlib.import_module(module), name)
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        return run(fn, *args, **kwargs)
+
+    return call
+
+
 def call_cases(fn: Any, cases: list[dict[str, Any]], time_limit: float,
-               public: bool) -> list[dict[str, Any]]:
+               public: bool, harness: str = "") -> list[dict[str, Any]]:
+    fn = harnessed(fn, harness)
     results: list[dict[str, Any]] = []
     for case in cases:
         if results and results[-1]["status"] == "timeout":
@@ -260,7 +288,7 @@ def _send(channel: Any, message: dict[str, Any]) -> None:
 
 def public_phase(request: dict[str, Any], namespace: dict[str, Any]) -> dict[str, Any]:
     cells = request["cells"]
-    cell_errors = run_cells(cells, namespace)
+    cell_errors = run_cells(cells, namespace, request.get("cell_time_limit", 0.0))
     outcomes: dict[str, Any] = {}
     for exercise in request["exercises"]:
         fn = namespace.get(exercise["function"])
@@ -273,7 +301,9 @@ def public_phase(request: dict[str, Any], namespace: dict[str, Any]) -> dict[str
         else:
             outcomes[exercise["id"]] = {
                 "signature": signature_of(fn),
-                "cases": call_cases(fn, exercise["cases"], request["case_time_limit"], True)}
+                "cases": call_cases(fn, exercise["cases"],
+                                    exercise.get("time_limit") or request["case_time_limit"],
+                                    True, exercise.get("harness", ""))}
     return {"phase": "public", "cell_errors": cell_errors, "outcomes": outcomes}
 
 
@@ -283,8 +313,9 @@ def hidden_phase(request: dict[str, Any], namespace: dict[str, Any],
     for exercise in request["exercises"]:
         fn = namespace.get(exercise["function"])
         if callable(fn):
-            outcomes[exercise["id"]] = {"cases": call_cases(fn, exercise["cases"], time_limit,
-                                                            False)}
+            outcomes[exercise["id"]] = {"cases": call_cases(
+                fn, exercise["cases"], exercise.get("time_limit") or time_limit, False,
+                exercise.get("harness", ""))}
     return {"phase": "hidden", "outcomes": outcomes}
 
 

@@ -437,6 +437,25 @@ BUGS = [
     ("lab09", "09-planning.ipynb", "astar",
      "                if dr and dc and not (free[r + dr, c] and free[r, c + dc]):\n"
      "                    continue\n", "", "both cells beside it are free"),
+    ("lab10", "10-navigation.ipynb", "pure_pursuit_curvature",
+     "    x = math.cos(th) * dx + math.sin(th) * dy       # the carrot in the robot's frame\n"
+     "    y = -math.sin(th) * dx + math.cos(th) * dy\n",
+     "    x, y = dx, dy\n", "into the robot's frame"),
+    ("lab10", "10-navigation.ipynb", "regulated_speed", "            v *= radius / min_radius",
+     "            v *= min_radius / radius", "scales DOWN"),
+    ("lab10", "10-navigation.ipynb", "dynamic_window",
+     "    lo_v, hi_v = max(0.0, v - acc_v * sim_time), min(max_v, v + acc_v * sim_time)\n"
+     "    lo_w, hi_w = max(-max_w, w - acc_w * sim_time), min(max_w, w + acc_w * sim_time)\n",
+     "    lo_v, hi_v = v - acc_v * sim_time, v + acc_v * sim_time\n"
+     "    lo_w, hi_w = w - acc_w * sim_time, w + acc_w * sim_time\n", "clip the window"),
+    ("lab10", "10-navigation.ipynb", "rollout", "    dt = sim_time / steps",
+     "    dt = sim_time", "sim_time / steps"),
+    ("lab11", "11-capstone.ipynb", "make_controller",
+     "            v = regulated_speed(k, remaining, self.v_max, 0.9, 0.25, 0.6, 0.05)",
+     "            v = regulated_speed(k, remaining, 0.12, 0.9, 0.05, 0.6, 0.05)", "in time"),
+    ("lab10", "10-navigation.ipynb", "goal_reached",
+     "    e = float(geometry.wrap_angle(goal[2] - pose[2]))", "    e = goal[2] - pose[2]",
+     "wrap the difference"),
 ]
 
 
@@ -543,3 +562,43 @@ def test_an_inflation_cost_bug_also_costs_the_inflation_built_with_it(tmp_path):
     lost = {k for k, v in result.exercises.items() if v.points < v.max_points}
     assert lost == {"lab09.inflation_cost", "lab09.inflate"}
     assert "LETHAL_OBSTACLE = 254" in result.exercises["lab09.inflation_cost"].reason
+
+
+CLOSED_LOOP = {
+    # a stack that crashes, one that never returns, one that drives into the wall ahead; the
+    # notebook's own episode cell meets the same mistake (its error, or its half of the budget)
+    "crash": ("    return Follower(robot)\n",
+              "    raise RuntimeError('my stack is not wired up')\n", "RuntimeError",
+              "RuntimeError: my stack is not wired up"),
+    "hang": ("        pose = np.asarray(pose, dtype=float)\n",
+             "        while True:\n            pass\n", "did not return",
+             "did not finish within 30 s"),
+    "walls": ("        return v, w\n    ### END SOLUTION",
+              "        return 0.5, 0.0\n    ### END SOLUTION", "no collision", None),
+}
+
+
+@pytest.mark.slow
+def test_closed_loop_grading_survives_crashes_hangs_and_walls(tmp_path):
+    """Lab 11 runs each submission's controller in seeded episodes: a stack that raises, one
+    that loops forever and one that drives straight into the wall get a row with the reason
+    (and 0 points), the grader goes on; the same seed grades the same."""
+    spec = load_lab("lab11")
+    paths = [mutate(SOLUTIONS / "11-capstone.ipynb", tmp_path / f"{name}.ipynb", old, new)
+             for name, (old, new, *_) in CLOSED_LOOP.items()]
+    graded = grade_submissions([*paths, SOLUTIONS / "11-capstone.ipynb"], spec, jobs=2,
+                               timeout=60)
+    for result, (name, (_, _, words, cell)) in zip(graded, CLOSED_LOOP.items(), strict=False):
+        ex = result.exercises["lab11.make_controller"]
+        assert ex.points == 0.0, (name, ex.reason)
+        assert words in ex.reason, (name, ex.reason)
+        errors = [e["error"] for e in result.cell_errors]
+        if cell is None:
+            assert errors == [], (name, errors)
+        else:  # the episode cell, once; the cells after it still ran
+            assert len(errors) == 1 and cell in errors[0], (name, errors)
+    assert graded[-1].total == spec.max_points, graded[-1].exercises
+    assert graded[-1].cell_errors == [] and graded[-1].status == "ok"
+    again = grade_submissions([paths[2]], spec, jobs=1, timeout=60)[0]
+    assert again.exercises["lab11.make_controller"].cases == \
+        graded[2].exercises["lab11.make_controller"].cases

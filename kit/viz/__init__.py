@@ -5,8 +5,8 @@ the axes; nothing here calls ``plt.show()``. Importing this package imports matp
 One private module per topic: ``_robot`` (the robot, paths, wheels), ``_drivers`` (what the
 drivers read), ``_control`` (signals over time, step responses), ``_estimation`` (errors
 against the truth, filters), ``_planning`` (costmaps, paths, searches), ``_grid`` (occupancy
-grids, maps with trajectories, scans), ``_localization`` (particle clouds); the labs of the
-think half add theirs beside them.
+grids, maps with trajectories, scans), ``_localization`` (particle clouds), ``_navigation``
+(DWB's rollouts).
 """
 
 from kit.viz._control import plot_signals, plot_step_response
@@ -14,6 +14,7 @@ from kit.viz._drivers import plot_lidar_turn
 from kit.viz._estimation import plot_headings, plot_kalman_track, plot_odometry_drift
 from kit.viz._grid import plot_grid, plot_map_trajectory, plot_scan
 from kit.viz._localization import animate_particles, plot_particles
+from kit.viz._navigation import plot_rollouts
 from kit.viz._planning import costmap_colors, plot_costmap, plot_path, plot_search
 from kit.viz._robot import plot_icc, plot_robot, plot_trajectories, plot_wheel_commands
 
@@ -31,6 +32,7 @@ __all__ = [
     "plot_particles",
     "plot_path",
     "plot_robot",
+    "plot_rollouts",
     "plot_scan",
     "plot_search",
     "plot_signals",

@@ -802,8 +802,87 @@ LAB09 = {
 }
 
 
+# ------------------------------------------------------------------ lab 10 as students err
+
+def _pp_as_students_err(pose, carrot, *, frame=True, two=2.0, use_x=False):
+    dx, dy = carrot[0] - pose[0], carrot[1] - pose[1]
+    if frame:
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        dx, dy = c * dx + s * dy, -s * dx + c * dy
+    return two * (dx if use_x else dy) / (dx * dx + dy * dy)
+
+
+def _rpp_as_students_err(k, remaining, desired, min_r, min_v, approach, min_approach, *,
+                         floor=True, near_goal=True, inverted=False):
+    v = desired
+    r = math.inf if k == 0 else 1 / abs(k)
+    if r < min_r:
+        v = desired * (min_r / r if inverted else r / min_r)
+    if floor and v < desired:
+        v = max(v, min_v)
+    if near_goal and remaining < approach:
+        v = max(v * remaining / approach, min_approach)
+    return v
+
+
+def _window_as_students_err(v, w, T, max_v, max_w, a_v, a_w, n_v, n_w, *, period=None,
+                            clip=True):
+    t = T if period is None else period
+    lo_v, hi_v, lo_w, hi_w = v - a_v * t, v + a_v * t, w - a_w * t, w + a_w * t
+    if clip:
+        lo_v, hi_v = max(lo_v, 0.0), min(hi_v, max_v)
+        lo_w, hi_w = max(lo_w, -max_w), min(hi_w, max_w)
+    return np.array([(a, b) for a in np.linspace(lo_v, hi_v, n_v)
+                     for b in np.linspace(lo_w, hi_w, n_w)])
+
+
+def _rollout_as_students_err(pose, v, w, T, steps, *, turn_first=False, dt=None):
+    x, y, th = pose
+    dt = T / steps if dt is None else dt
+    out = []
+    for _ in range(steps):
+        th = th + w * dt if turn_first else th
+        x, y = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt
+        th = th if turn_first else th + w * dt
+        out.append([x, y, th])
+    return np.array(out)
+
+
+LAB10 = {
+    "pure_pursuit_curvature": [
+        ("the carrot left in the map frame", lambda p, c: _pp_as_students_err(p, c, frame=False)),
+        ("y / L² (the 2 left out)", lambda p, c: _pp_as_students_err(p, c, two=1.0)),
+        ("x instead of y", lambda p, c: _pp_as_students_err(p, c, use_x=True)),
+    ],
+    "regulated_speed": [
+        ("no floor at regulated_linear_scaling_min_speed",
+         lambda *a: _rpp_as_students_err(*a, floor=False)),
+        ("no slowing near the goal", lambda *a: _rpp_as_students_err(*a, near_goal=False)),
+        ("min_radius / radius instead of radius / min_radius",
+         lambda *a: _rpp_as_students_err(*a, inverted=True)),
+    ],
+    "dynamic_window": [
+        ("the window over one control period",
+         lambda *a: _window_as_students_err(*a, period=0.05)),
+        ("velocities beyond the limits", lambda *a: _window_as_students_err(*a, clip=False)),
+    ],
+    "rollout": [
+        ("heading turned before the step",
+         lambda *a: _rollout_as_students_err(*a, turn_first=True)),
+        ("dt = sim_time", lambda p, v, w, T, n: _rollout_as_students_err(p, v, w, T, n, dt=T)),
+    ],
+    "goal_reached": [
+        ("the heading error not wrapped",
+         lambda p, g, xy, yaw: bool(math.hypot(g[0] - p[0], g[1] - p[1]) <= xy
+                                    and abs(g[2] - p[2]) <= yaw)),
+    ],
+}
+
+
 CATALOGUE = {"lab01": LAB01, "lab02": LAB02, "lab03": LAB03, "lab04": LAB04, "lab05": LAB05,
-             "lab06": LAB06, "lab07": LAB07, "lab08": LAB08, "lab09": LAB09}
+             "lab06": LAB06, "lab07": LAB07, "lab08": LAB08, "lab09": LAB09, "lab10": LAB10,
+             # Lab 11 is graded closed-loop: an episode's verdict names what failed
+             "lab11": {"make_controller": []}}
 COINCIDENT: dict[tuple[str, str], set[str]] = {
     # mistakes that give the same numbers on some cases: the check names both there
     ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
