@@ -43,8 +43,9 @@ typecheck: $(STAMP)
 pytest: $(STAMP)
 	$(BIN)/pytest -n 2 $(PYTEST_ARGS)
 
+# nbval keeps one kernel per notebook: --dist loadscope sends each notebook whole to one worker
 nbval: $(STAMP)
-	$(BIN)/pytest --nbval solutions -p no:xdist -o addopts="" $(PYTEST_ARGS)
+	$(BIN)/pytest --nbval solutions -n 2 --dist loadscope -o addopts="" $(PYTEST_ARGS)
 
 test: lint typecheck pytest nbval
 

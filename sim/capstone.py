@@ -6,12 +6,12 @@ returns a controller — ``set_plan(path, goal_yaw)`` and ``compute_velocity_com
 velocity, costmap) -> (v, ω)``, as :class:`kit.navigation.Controller` — and the kit's navigator
 (costmaps, the planner at 1 Hz, recoveries) runs it at 20 Hz for the Uiabot from the
 north-west office to the north-east one among walking people, the glass kept out. The verdict
-of one episode is ``{"reached": …, "no collision": …, "in time": …}``: the goal reached within
-its time limit, no contact with a wall, the glass or a box, and the time within twice the
-shortest path at cruise speed plus 10 s. (Contacts with people are not graded: the simulated
-people also walk into a robot standing still; ``python -m sim navigate`` counts them.) A
-controller that raises, loops or never moves fails its episode with that reason; every
-episode is the same for the same seed.
+of one episode is ``{"reached": …, "no collision": …, "in time": …}``: the goal reached, no
+contact with a wall, the glass or a box, and the time within twice the shortest path at
+cruise speed plus 10 s. As in a field trial, an episode ends at the first contact with a wall
+(the run fails there) or when its time is up (it is not reached). (Contacts with people are
+not graded here; ``python -m sim navigate`` counts them.) A controller that raises, loops or
+never moves fails its episode with that reason; every episode is the same for the same seed.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from sim import scenarios
 from sim.runner import Runner, WheelOdometryNode
 from sim.simulation import Simulation
 
-__all__ = ["PEOPLE", "office_episode", "verdict"]
+__all__ = ["PEOPLE", "office_episode", "time_allowed", "verdict"]
 
 PEOPLE = 2
 """People walking the office in a graded episode."""
@@ -37,7 +37,7 @@ def verdict(row: scenarios.GoalResult, cruise: float) -> dict[str, bool]:
     return {"reached": bool(row.reached),
             "no collision": row.collisions_static == 0,
             "in time": bool(row.reached) and
-            row.seconds <= 2.0 * row.shortest_length / cruise + 10.0}
+            row.seconds <= time_allowed(row.shortest_length, cruise)}
 
 
 def office_episode(make_controller: Callable[[RobotDescription], Any], seed: int
@@ -54,9 +54,20 @@ def office_episode(make_controller: Callable[[RobotDescription], Any], seed: int
                             f"method; got {type(controller).__name__}")
     nav = Navigator(s.nav_grid, robot, controller=controller, keepout=s.keepout)
     cruise = robot.max_linear_velocity
-    limits = [30.0 + 4.0 * x / cruise if math.isfinite(x) else 120.0 for x in s.shortest]
+    limits = [time_allowed(x, cruise) for x in s.shortest]
     node = scenarios.NavigationNode(nav, scenarios.TruthLocalization(), s.route.goals, limits,
                                     0, s.shortest)
-    Runner(sim, [WheelOdometryNode(), node], record_rate=1.0).run(sum(limits) + 1.0,
-                                                                  until=lambda r: node.done)
+
+    def touched_a_wall() -> bool:
+        return any(c.other == "wall" for c in sim.collisions)
+
+    Runner(sim, [WheelOdometryNode(), node], record_rate=1.0).run(
+        sum(limits) + 1.0, until=lambda r: node.done or touched_a_wall())
+    if not node.results:  # ended at the contact
+        return {"reached": False, "no collision": False, "in time": False}
     return verdict(node.results[0], cruise)
+
+
+def time_allowed(shortest: float, cruise: float) -> float:
+    """An episode's time [s]: twice the shortest path at cruise speed, plus 10 s."""
+    return 2.0 * shortest / cruise + 10.0 if math.isfinite(shortest) else 120.0

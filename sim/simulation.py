@@ -14,8 +14,9 @@ on the driven wheels, servos that can spin a wheel's rim up at 6 m/s².
 
 Pedestrians are discs of 0.25 m and 70 kg that walk their routes at seeded speeds with the
 same kind of foot traction, stepping aside for robots that come close (and round one ahead of
-them, on the side away from it, never stepping on towards one an arm's length away); they
-push and can be pushed, and the lidar sees them.
+them, on the side away from it, never closing in on one faster than they could still stop
+from, stepping back from one that comes at them; passing each other on the right, without
+bumping); they push and can be pushed, and the lidar sees them.
 """
 
 from __future__ import annotations
@@ -100,6 +101,25 @@ class Collision:
     other: str
     """"wall", "person" or "robot"."""
 
+
+PERSON_RADIUS = 0.25
+"""[m] a pedestrian's disc."""
+
+
+def _distance_to_polygon(x: float, y: float, polygon: FloatArray) -> float:
+    """Distance [m] from (x, y) to the closed polygon's outline (0 on it; inside counts as
+    the distance to the nearest edge, which never matters for a person outside a robot)."""
+    best = math.inf
+    n = len(polygon)
+    for i in range(n):
+        x0, y0 = float(polygon[i, 0]), float(polygon[i, 1])
+        x1, y1 = float(polygon[(i + 1) % n, 0]), float(polygon[(i + 1) % n, 1])
+        ex, ey = x1 - x0, y1 - y0
+        length2 = ex * ex + ey * ey
+        t = 0.0 if length2 <= 0.0 else min(1.0, max(0.0, ((x - x0) * ex + (y - y0) * ey)
+                                                   / length2))
+        best = min(best, math.hypot(x - x0 - t * ex, y - y0 - t * ey))
+    return best
 
 @dataclass
 class _Robot:
@@ -287,7 +307,7 @@ class Simulation:
         start = a + f * (b - a)
         body = pymunk.Body(70.0, float("inf"))
         body.position = (float(start[0]), float(start[1]))
-        shape = pymunk.Circle(body, 0.25)
+        shape = pymunk.Circle(body, PERSON_RADIUS)
         shape.collision_type = PERSON
         shape.friction = 0.5
         ground = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
@@ -311,10 +331,13 @@ class Simulation:
     def _discs(self) -> FloatArray:
         if not self.people:
             return _NO_DISCS
-        return np.array([(*p.body.position, 0.25) for p in self.people])
+        return np.array([(*p.body.position, PERSON_RADIUS) for p in self.people])
 
     def _walk(self) -> None:
         robots = [(float(r.pose[0]), float(r.pose[1])) for r in self.robots]
+        outlines = [geometry.transform_points(r.pose, r.description.footprint)
+                    for r in self.robots]
+        velocities = [r.world_velocity for r in self.robots]
         for p in self.people:
             px, py = p.body.position
             gx, gy = p.route[p.target]
@@ -351,15 +374,39 @@ class Simulation:
                             away = -away
                         side = p.speed * (1.5 - gap) / 1.5 * away
                         vx, vy = vx + uy * side, vy - ux * side
-            for rx, ry in robots:
-                # nobody walks on into a robot an arm's length away: the part of their step
-                # towards it goes
+            for q in self.people:
+                # nor into each other: someone ahead within ±45° is passed on the right, and
+                # the same stopping rule holds between two people (each brakes for their part)
+                if q is p:
+                    continue
+                qx, qy = q.body.position
+                ax, ay = px - qx, py - qy
+                gap = math.hypot(ax, ay)
+                if 1e-6 < gap < 1.5:
+                    if -(ax * ux + ay * uy) > 0.7 * gap:
+                        side = 0.5 * p.speed * (1.5 - gap) / 1.5
+                        vx, vy = vx + uy * side, vy - ux * side
+                    allowed = math.sqrt(2.0 * 1.0 * max(gap - 2 * PERSON_RADIUS - 0.1, 0.0))
+                    toward = -(vx * ax + vy * ay) / gap
+                    if toward > allowed:
+                        cut = toward - allowed
+                        vx, vy = vx + ax / gap * cut, vy + ay / gap * cut
+            for (rx, ry), (rvx, rvy), outline in zip(robots, velocities, outlines,
+                                                      strict=True):
+                # nobody walks into a robot: the speed at which they and the robot close in
+                # stays one they can still stop from before touching it (their feet brake at
+                # about 1.5 m/s² and they decide ten times a second: 1 m/s² and 0.2 m kept);
+                # a robot coming at them faster than that makes them step back
                 ax, ay = px - rx, py - ry
                 gap = math.hypot(ax, ay)
-                if 1e-6 < gap < 0.9:
+                if 1e-6 < gap < 3.0:
+                    clearance = _distance_to_polygon(px, py, outline) - PERSON_RADIUS
+                    coming = max((rvx * ax + rvy * ay) / gap, 0.0)
+                    allowed = math.sqrt(2.0 * 1.0 * max(clearance - 0.2, 0.0)) - coming
                     toward = -(vx * ax + vy * ay) / gap
-                    if toward > 0.0:
-                        vx, vy = vx + ax / gap * toward, vy + ay / gap * toward
+                    if toward > allowed:
+                        cut = toward - allowed
+                        vx, vy = vx + ax / gap * cut, vy + ay / gap * cut
             speed = math.hypot(vx, vy)
             if speed > 1.5:
                 vx, vy = vx * 1.5 / speed, vy * 1.5 / speed

@@ -452,7 +452,7 @@ BUGS = [
      "    dt = sim_time", "sim_time / steps"),
     ("lab11", "11-capstone.ipynb", "make_controller",
      "            v = regulated_speed(k, remaining, self.v_max, 0.9, 0.25, 0.6, 0.05)",
-     "            v = regulated_speed(k, remaining, 0.12, 0.9, 0.05, 0.6, 0.05)", "in time"),
+     "            v = regulated_speed(k, remaining, 0.12, 0.9, 0.05, 0.6, 0.05)", "'in time': False"),
     ("lab10", "10-navigation.ipynb", "goal_reached",
      "    e = float(geometry.wrap_angle(goal[2] - pose[2]))", "    e = goal[2] - pose[2]",
      "wrap the difference"),
@@ -574,7 +574,7 @@ CLOSED_LOOP = {
              "        while True:\n            pass\n", "did not return",
              "did not finish within 30 s"),
     "walls": ("        return v, w\n    ### END SOLUTION",
-              "        return 0.5, 0.0\n    ### END SOLUTION", "no collision", None),
+              "        return 0.5, 0.0\n    ### END SOLUTION", "'no collision': False", None),
 }
 
 
