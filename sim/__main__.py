@@ -1,7 +1,7 @@
 """``python -m sim demo [--out DIR] [--seed N]``, ``python -m sim bench [--quick]`` and
 ``python -m sim navigate --world office|aisle --robot uiabot|igv --episodes N --seed S
-[--localization truth|amcl] [--controller dwb|rpp] [--route tour|glass] [--keepout|--no-keepout]
---out FILE.csv``."""
+[--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass]
+[--keepout|--no-keepout] --out FILE.csv``."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     nav.add_argument("--robot", choices=("uiabot", "igv", "eddie"), default="uiabot")
     nav.add_argument("--episodes", type=int, default=20)
     nav.add_argument("--seed", type=int, default=0, help="episode i runs with seed S + i")
-    nav.add_argument("--localization", choices=("truth", "amcl"), default="truth")
+    nav.add_argument("--localization", choices=("truth", "amcl", "slam"), default="truth")
     nav.add_argument("--controller", choices=("rpp", "dwb"), default="rpp")
     nav.add_argument("--route", choices=("tour", "glass"), default="tour")
     nav.add_argument("--keepout", action=argparse.BooleanOptionalAction, default=None,

@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry, msgs, perception
 from kit.localization import Amcl, AmclParameters
+from kit.mapping import OccupancyGridMap
 from kit.navigation import RUNNING, SUCCEEDED, NavigationCostmap, Navigator, arc_poses
 from kit.planning import (
     FREE_SPACE,
@@ -55,16 +56,22 @@ from kit.planning import (
 from kit.planning import path_to_points as _points
 from kit.progress import progress
 from kit.robots import RobotDescription
+from kit.slam import Slam, SlamConfig
 from kit.tf import RigidTransform
 from sim.runner import Node, Published, Runner, WheelOdometryNode, odometry_pose
 from sim.simulation import Simulation
 from sim.world import World, load_world
 
-__all__ = ["COLUMNS", "ROUTES", "GoalResult", "NavigationNode", "Route", "episode",
-           "navigate", "write_table"]
+__all__ = ["COLUMNS", "LOCALIZATIONS", "ROUTES", "AmclLocalization", "GoalResult",
+           "NavigationNode", "Route", "SlamLocalization", "TruthLocalization", "episode",
+           "localization_source", "navigate", "on_canvas", "run_episode", "unknown_canvas",
+           "write_table"]
 
 FloatArray = NDArray[np.float64]
 HALF_PI = math.pi / 2
+
+LOCALIZATIONS = ("truth", "amcl", "slam")
+"""The localization sources of an episode."""
 
 COLUMNS = ("episode", "goal", "reached", "seconds", "path_length", "shortest_length",
            "collisions_static", "collisions_people", "min_person_distance", "reason")
@@ -134,7 +141,8 @@ class TruthLocalization:
     def start(self, sim: Simulation, robot: int, odom_pose: FloatArray) -> None:
         self._sim, self._robot = sim, robot
 
-    def on_scan(self, scan: msgs.LaserScan, odom_pose: FloatArray) -> None:
+    def on_scan(self, scan: msgs.LaserScan, odom_pose: FloatArray,
+                velocity: ArrayLike = (0.0, 0.0), time: float | None = None) -> None:
         pass
 
     def pose(self, odom_pose: FloatArray) -> FloatArray:
@@ -163,12 +171,98 @@ class AmclLocalization:
         self.map_to_odom = geometry.compose(sim.ground_truth(robot).pose,
                                             geometry.inverse(odom_pose))
 
-    def on_scan(self, scan: msgs.LaserScan, odom_pose: FloatArray) -> None:
+    def on_scan(self, scan: msgs.LaserScan, odom_pose: FloatArray,
+                velocity: ArrayLike = (0.0, 0.0), time: float | None = None) -> None:
         if self.amcl.process(scan, odom_pose, self.mount) and self.amcl.map_to_odom is not None:
             self.map_to_odom = self.amcl.map_to_odom
 
     def pose(self, odom_pose: FloatArray) -> FloatArray:
         return geometry.compose(self.map_to_odom, odom_pose)
+
+
+class SlamLocalization:
+    """The kit's SLAM mapping while the robot navigates (the Uiabot paper's fourth test):
+    each scan goes to :class:`kit.slam.Slam` with the wheel odometry (de-skewed along the
+    current velocity); its pose gives ``map → odom``, and every ``map_update_interval``
+    seconds (SLAM Toolbox's default: 5 s) its map is published to the navigator, drawn on
+    ``canvas`` — the global costmap's fixed extent — with unknown space left unknown (which
+    the planner may cross, as Nav2's ``allow_unknown``). The map frame is the start pose's
+    frame in the world's coordinates, so that goals given in the world mean the same."""
+
+    name = "slam"
+
+    def __init__(self, canvas: msgs.OccupancyGrid, map_update_interval: float = 5.0,
+                 config: SlamConfig | None = None, minimum_travel_distance: float = 0.5,
+                 minimum_travel_heading: float = 0.5) -> None:
+        self.canvas = canvas
+        self.map_update_interval = float(map_update_interval)
+        self.config = config
+        self.minimum_travel_distance = float(minimum_travel_distance)
+        self.minimum_travel_heading = float(minimum_travel_heading)
+
+    def start(self, sim: Simulation, robot: int, odom_pose: FloatArray) -> None:
+        mount = sim.description(robot).joint("laser_joint")
+        self.slam = Slam((float(mount.xyz[0]), float(mount.xyz[1]), float(mount.rpy[2])),
+                         self.config)
+        self.start_offset = geometry.compose(sim.ground_truth(robot).pose,
+                                             geometry.inverse(odom_pose))
+        self.map_to_odom = self.start_offset
+        self.next_map = -math.inf
+        self.maps = 0
+        self.last_odom: FloatArray | None = None
+
+    def on_scan(self, scan: msgs.LaserScan, odom_pose: FloatArray,
+                velocity: ArrayLike = (0.0, 0.0), time: float | None = None) -> None:
+        if self.last_odom is not None:
+            # as SLAM Toolbox: a scan is processed once the odometry has moved enough since
+            # the last one (minimum_travel_distance / _heading); in between, map → odom holds.
+            # Matching every scan lets a person walking along with the robot in a corridor
+            # (whose walls say nothing along it) hold the estimate back, scan after scan.
+            step = geometry.relative(self.last_odom, odom_pose)
+            if math.hypot(step[0], step[1]) < self.minimum_travel_distance and \
+                    abs(step[2]) < self.minimum_travel_heading:
+                return
+        self.last_odom = np.asarray(odom_pose, dtype=float).copy()
+        now = scan.header.stamp.to_sec() if time is None else float(time)
+        v, w = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
+        motion = arc_poses(np.zeros(3), v, w, perception.beam_times(scan) - now)
+        odom_in_map = geometry.compose(self.start_offset, odom_pose)
+        pose = self.slam.add_scan(scan, odom_in_map, now, motion)
+        self.map_to_odom = geometry.compose(pose, geometry.inverse(odom_pose))
+
+    def pose(self, odom_pose: FloatArray) -> FloatArray:
+        return geometry.compose(self.map_to_odom, odom_pose)
+
+    def new_map(self, time: float) -> msgs.OccupancyGrid | None:
+        """SLAM's map on the canvas when one is due, else ``None``."""
+        if time < self.next_map or not self.slam.nodes:
+            return None
+        self.next_map = time + self.map_update_interval
+        self.maps += 1
+        return on_canvas(self.slam.occupancy_map(self.canvas.info.resolution), self.canvas)
+
+
+def on_canvas(grid: OccupancyGridMap, canvas: msgs.OccupancyGrid) -> msgs.OccupancyGrid:
+    """``grid``'s trinary map copied into ``canvas``'s extent (same resolution, cells aligned;
+    unknown elsewhere, and what lies outside the canvas dropped)."""
+    info = canvas.info
+    res = float(info.resolution)
+    out = np.full((info.height, info.width), -1, dtype=np.int8)
+    data = grid.trinary()
+    c0 = round((float(grid.origin[0]) - info.origin.position.x) / res)
+    r0 = round((float(grid.origin[1]) - info.origin.position.y) / res)
+    rows, cols = data.shape
+    rs, re = max(r0, 0), min(r0 + rows, info.height)
+    cs, ce = max(c0, 0), min(c0 + cols, info.width)
+    if rs < re and cs < ce:
+        out[rs:re, cs:ce] = data[rs - r0:re - r0, cs - c0:ce - c0]
+    return msgs.OccupancyGrid(canvas.header, info, out.ravel())
+
+
+def unknown_canvas(canvas: msgs.OccupancyGrid) -> msgs.OccupancyGrid:
+    """``canvas``'s extent with every cell unknown (what SLAM knows before its first scan)."""
+    return msgs.OccupancyGrid(canvas.header, canvas.info,
+                              np.full(len(canvas.data), -1, dtype=np.int8))
 
 
 def _laser_mount(robot: RobotDescription) -> RigidTransform:
@@ -202,6 +296,8 @@ class NavigationNode(Node):
         self.episode = episode
         self.results: list[GoalResult] = []
         self.trail: list[FloatArray] = []
+        self.pose_errors: list[float] = []
+        """Distance [m] between the localization's pose and the truth, every tick."""
         self.done = False
 
     def start(self, sim: Simulation, robot: int) -> Published:
@@ -233,7 +329,11 @@ class NavigationNode(Node):
             self.velocity = np.array([message.twist.twist.linear.x,
                                       message.twist.twist.angular.z])
             return ()
-        self.localization.on_scan(message, self.odom_pose)
+        self.localization.on_scan(message, self.odom_pose, self.velocity, time)
+        update = getattr(self.localization, "new_map", None)
+        grid = update(time) if update is not None else None
+        if grid is not None:
+            self.navigator.update_map(grid)
         base = self.localization.pose(self.odom_pose)
         points, sensor = deskewed_points(message, base, self.velocity, self.mount_pose, time)
         self.navigator.on_points(points, sensor, base)
@@ -266,6 +366,8 @@ class NavigationNode(Node):
     def _measure(self) -> None:
         truth = self.sim.ground_truth(self.robot).pose
         self.trail.append(truth.copy())
+        estimate = self.localization.pose(self.odom_pose)
+        self.pose_errors.append(float(np.hypot(*(estimate[:2] - truth[:2]))))
         self.distance += float(np.hypot(*(truth[:2] - self.last_xy)))
         self.last_xy = truth[:2].copy()
         people = self.sim.people_positions()
@@ -381,26 +483,42 @@ def shortest_lengths(world: World, robot: str, route: Route) -> list[float]:
     return out
 
 
-def episode(s: EpisodeSetup, index: int, seed: int, localization: str = "truth",
-            controller: str = "rpp") -> list[GoalResult]:
-    """One seeded episode; the route's rows."""
+def localization_source(s: EpisodeSetup, localization: str, seed: int) -> Any:
+    """A fresh localization source by name (one of :data:`LOCALIZATIONS`)."""
+    if localization == "truth":
+        return TruthLocalization()
+    if localization == "amcl":
+        return AmclLocalization(s.nav_grid, seed)
+    if localization == "slam":
+        return SlamLocalization(s.nav_grid)
+    raise ValueError(f"localization is one of {', '.join(LOCALIZATIONS)}; got "
+                     f"{localization!r}")
+
+
+def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
+                controller: str = "rpp") -> NavigationNode:
+    """One seeded episode with a localization source; the node (its ``results``, its
+    ``pose_errors``). With SLAM the navigator starts from unknown space."""
     route = s.route
     sim = Simulation(world=s.world, robot=s.robot, seed=seed, people=route.people,
                      start=route.start)
     d = sim.description()
-    nav = Navigator(s.nav_grid, d, controller=controller, keepout=s.keepout)
-    if localization == "truth":
-        loc: Any = TruthLocalization()
-    elif localization == "amcl":
-        loc = AmclLocalization(s.nav_grid, seed)
-    else:
-        raise ValueError(f"localization is 'truth' or 'amcl'; got {localization!r}")
+    grid = unknown_canvas(s.nav_grid) if isinstance(localization, SlamLocalization) \
+        else s.nav_grid
+    nav = Navigator(grid, d, controller=controller, keepout=s.keepout)
     cruise = d.max_linear_velocity
     limits = [30.0 + 4.0 * (x if math.isfinite(x) else 30.0) / cruise for x in s.shortest]
-    node = NavigationNode(nav, loc, route.goals, limits, index, s.shortest)
+    node = NavigationNode(nav, localization, route.goals, limits, index, s.shortest)
     runner = Runner(sim, [WheelOdometryNode(), node], record_rate=1.0)
     runner.run(sum(limits) + 1.0, until=lambda r: node.done)
-    return node.results
+    return node
+
+
+def episode(s: EpisodeSetup, index: int, seed: int, localization: str = "truth",
+            controller: str = "rpp") -> list[GoalResult]:
+    """One seeded episode; the route's rows."""
+    return run_episode(s, index, seed, localization_source(s, localization, seed),
+                       controller).results
 
 
 def navigate(world: str = "office", robot: str = "uiabot", episodes: int = 20, seed: int = 0,
@@ -409,6 +527,11 @@ def navigate(world: str = "office", robot: str = "uiabot", episodes: int = 20, s
     """Seeded episodes ``seed, seed + 1, …``; every goal's row."""
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1; got {episodes}")
+    if localization not in LOCALIZATIONS:
+        raise ValueError(f"localization is one of {', '.join(LOCALIZATIONS)}; got "
+                         f"{localization!r}")
+    if controller not in ("rpp", "dwb"):
+        raise ValueError(f"controller is 'rpp' or 'dwb'; got {controller!r}")
     s = setup(world, robot, route, keepout)
     rows: list[GoalResult] = []
     indices = range(episodes)

@@ -119,6 +119,31 @@ class NavigationCostmap:
             self.origin = self.static_origin
             self.obstacles = np.full(self.static.shape, FREE_SPACE, dtype=np.uint8)
 
+    def set_static(self, grid: msgs.OccupancyGrid) -> None:
+        """A new static map, as Nav2's static layer takes each ``/map`` that SLAM publishes.
+
+        The keep-out mask is applied again. A rolling window keeps what it has seen; a global
+        costmap keeps its marks when the map keeps its size and origin (SLAM drawn on a fixed
+        canvas) and starts its obstacle layer afresh otherwise. The resolution cannot change.
+        """
+        resolution = float(grid.info.resolution)
+        if not math.isclose(resolution, self.resolution):
+            raise ValueError(f"the new map's resolution {resolution} m differs from the "
+                             f"costmap's {self.resolution} m")
+        static = static_layer(grid)
+        origin = (grid.info.origin.position.x, grid.info.origin.position.y)
+        if self.keepout is not None and not self.rolling:
+            static = apply_keepout(static, self.keepout, self.resolution, origin)
+        if self.moving_margin > 0:
+            self._static_distance = ndimage.distance_transform_edt(
+                static != LETHAL_OBSTACLE) * self.resolution
+        if not self.rolling and (static.shape != self.obstacles.shape or not (
+                math.isclose(origin[0], self.static_origin[0], abs_tol=1e-9) and
+                math.isclose(origin[1], self.static_origin[1], abs_tol=1e-9))):
+            self.obstacles = np.full(static.shape, FREE_SPACE, dtype=np.uint8)
+            self.origin = origin
+        self.static, self.static_origin = static, origin
+
     @property
     def circumscribed_cost(self) -> int:
         """The cost at a centre one cell beyond the circumscribed radius from the nearest

@@ -209,6 +209,14 @@ class Navigator:
         return self.state.reason
 
     # ------------------------------------------------------------------ sensing
+    def update_map(self, grid: msgs.OccupancyGrid) -> None:
+        """A new map for the global costmap's static layer (SLAM's ``/map``, every few
+        seconds while navigating and mapping); the next plan uses it. The local costmap keeps
+        the map it was given (none, in effect, when that was unknown space: Nav2's default
+        local costmap has no static layer): a person SLAM mapped as a wall while standing in
+        a doorway must not hold the controller back once the lidar sees the doorway clear."""
+        self.global_costmap.set_static(grid)
+
     def on_scan(self, scan: msgs.LaserScan, laser_pose: ArrayLike, robot_pose: ArrayLike
                 ) -> None:
         """Mark and clear both costmaps with a scan taken at ``laser_pose`` (map frame)."""

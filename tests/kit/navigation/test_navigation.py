@@ -221,6 +221,39 @@ def test_a_rolling_window_keeps_what_it_saw_where_it_was():
     assert not np.any(cm.obstacles == LETHAL_OBSTACLE)
 
 
+def test_a_new_map_replaces_the_static_layer_and_keeps_what_was_seen():
+    """SLAM's /map every few seconds: the static layer follows it (keep-out applied again),
+    the marks of the obstacle layer stay when the canvas does, a new resolution is refused."""
+    blank = free_grid()
+    keepout = free_grid(boxes=((7.0, 1.0, 7.5, 1.5),))
+    cm = NavigationCostmap(blank, SQUARE, keepout=keepout)
+    cm.add_points([[2.0, 2.0]], (1.0, 2.0))
+    walled = free_grid(boxes=((5.0, 0.0, 5.3, 4.0),))
+    cm.set_static(walled)
+    costs = cm.costmap()
+    assert costs.costs[costs.world_to_cell(5.1, 2.0)] == LETHAL_OBSTACLE        # the new wall
+    assert costs.costs[costs.world_to_cell(2.0, 2.0)] == LETHAL_OBSTACLE        # still seen
+    assert costs.costs[costs.world_to_cell(7.2, 1.2)] == LETHAL_OBSTACLE        # kept out
+    same = free_grid()
+    info = msgs.MapMetaData(resolution=same.info.resolution, width=same.info.width,
+                            height=same.info.height, origin=msgs.Pose(msgs.Point(1.0, 0.0, 0.0)))
+    cm.set_static(msgs.OccupancyGrid(same.header, info, same.data))  # another canvas: marks go
+    assert cm.origin == (1.0, 0.0)
+    assert not np.any(cm.obstacles == LETHAL_OBSTACLE)
+    with pytest.raises(ValueError, match="resolution"):
+        cm.set_static(free_grid(res=0.1))
+
+
+def test_the_navigator_plans_on_the_newest_map():
+    nav = Navigator(free_grid(), load("uiabot"))
+    nav.navigate_to_pose((8.0, 1.0, 0.0))
+    nav.tick(0.0, (1.0, 1.0, 0.0))
+    assert np.max(nav.path[:, 1]) < 1.5                           # straight across
+    nav.update_map(free_grid(boxes=((4.0, 0.0, 4.3, 2.8),)))
+    nav.tick(1.0, (1.0, 1.0, 0.0))
+    assert np.max(nav.path[:, 1]) > 2.8                           # round the new wall
+
+
 # ---------------------------------------------------------------- behaviours and checkers
 
 def test_spin_turns_its_angle_and_backup_will_not_back_into_a_wall():

@@ -1,0 +1,107 @@
+"""`python -m sim navigate` as a user runs it: the table's columns, the glass room met as the
+real Uiabot met it and then kept out, navigation while mapping with the kit's SLAM, and bad
+arguments refused before anything runs."""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pytest
+
+from kit import geometry, msgs
+from kit.mapping import OccupancyGridMap
+from sim import scenarios
+from sim.__main__ import main
+
+
+def read_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.reader(f))
+
+
+def test_the_glass_room_is_driven_into_without_a_mask_and_avoided_with_one(tmp_path, capsys):
+    """The lidar's map has no glass, so the planner goes straight through the meeting room
+    and the robot touches the glass (Fig. 4.15 of the Uiabot paper); with the keep-out mask
+    it goes round by the corridor without a contact."""
+    without, with_mask = tmp_path / "no_mask.csv", tmp_path / "mask.csv"
+    assert main(["navigate", "--world", "office", "--route", "glass", "--episodes", "1",
+                 "--no-keepout", "--out", str(without)]) == 0
+    assert main(["navigate", "--world", "office", "--route", "glass", "--episodes", "1",
+                 "--keepout", "--out", str(with_mask)]) == 0
+    header, row = read_rows(without)
+    assert tuple(header) == scenarios.COLUMNS == (
+        "episode", "goal", "reached", "seconds", "path_length", "shortest_length",
+        "collisions_static", "collisions_people", "min_person_distance", "reason")
+    assert int(row[header.index("collisions_static")]) > 0
+    header, row = read_rows(with_mask)
+    got = dict(zip(header, row, strict=True))
+    assert got["reached"] == "1" and got["collisions_static"] == "0", got
+    # round by the corridor: longer than the straight line, near the footprint's shortest
+    straight = math.dist((6.0, 9.5), (15.0, 9.5))
+    assert float(got["path_length"]) > straight + 2.0
+    assert float(got["path_length"]) < 1.3 * float(got["shortest_length"])
+    assert "1 goals reached" in capsys.readouterr().out.replace("100% of ", "")
+
+
+def test_navigation_while_mapping_reaches_the_goal_on_the_map_it_builds():
+    """--localization slam: the navigator starts with nothing but unknown space, SLAM's map
+    reaches it every 5 s, and the estimate stays on the truth all the way."""
+    s = scenarios.setup("office", "uiabot", "glass", keepout=True)
+    loc = scenarios.SlamLocalization(s.nav_grid)
+    node = scenarios.run_episode(s, 0, 0, loc)
+    (row,) = node.results
+    assert row.reached and row.collisions_static == 0, row
+    assert loc.maps >= 5 and len(loc.slam.nodes) > 10
+    assert max(node.pose_errors) < 0.25, max(node.pose_errors)
+    # the navigator's map is SLAM's: walls where the world has them, and still unknown
+    # (free to plan through) beyond what the lidar reached
+    static = node.navigator.global_costmap.static
+    assert np.count_nonzero(static == 254) > 500
+
+
+def test_a_map_is_drawn_on_the_canvas_cell_for_cell():
+    canvas_cells = np.zeros((40, 60), dtype=np.int8)
+    info = msgs.MapMetaData(resolution=0.05, width=60, height=40,
+                            origin=msgs.Pose(msgs.Point(-1.0, -0.5, 0.0)))
+    canvas = msgs.OccupancyGrid(msgs.Header(frame_id="map"), info, canvas_cells.ravel())
+    blank = scenarios.unknown_canvas(canvas)
+    assert np.all(np.asarray(blank.data) == -1) and blank.info == canvas.info
+    grid = OccupancyGridMap(0.05, origin=(0.0, 0.0))
+    for _ in range(10):    # p_free 0.4: a cell is drawn free after a few clear rays
+        grid.insert_points([0.01, 0.01], [[1.02, 0.01]], [True])
+    drawn = np.asarray(scenarios.on_canvas(grid, canvas).data).reshape(40, 60)
+    # the return at (1.02, 0.01) lands in the canvas cell holding that point; the ray free
+    row, col = math.floor((0.01 + 0.5) / 0.05), math.floor((1.02 + 1.0) / 0.05)
+    assert drawn[row, col] == 100
+    assert drawn[row, col - 10] == 0
+    assert drawn[row + 10, col] == -1                 # never seen: unknown
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--episodes", "0"], "--episodes must be at least 1"),
+    (["--world", "aisle", "--route", "glass"], "no route 'glass' in world 'aisle'"),
+])
+def test_bad_arguments_are_refused_with_the_reason(tmp_path, capsys, args, message):
+    out = tmp_path / "t.csv"
+    assert main(["navigate", *args, "--out", str(out)]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_unknown_localization_or_controller_is_refused_before_any_episode():
+    with pytest.raises(ValueError, match="localization is one of truth, amcl, slam"):
+        scenarios.navigate(localization="gps", episodes=1)
+    with pytest.raises(ValueError, match="controller is 'rpp' or 'dwb'"):
+        scenarios.navigate(controller="teb", episodes=1)
+
+
+def test_the_person_gap_is_the_distance_to_the_footprints_outline():
+    square = np.array([[0.5, 0.5], [-0.5, 0.5], [-0.5, -0.5], [0.5, -0.5]])
+    points = np.array([[2.0, 0.0], [0.5, 1.5], [1.5, 1.5], [0.0, 0.0]])
+    got = scenarios.polygon_distance(square, points)
+    assert got[:3] == pytest.approx([1.5, 1.0, math.sqrt(2.0)])
+    rotated = geometry.transform_points([0.0, 0.0, math.pi / 4], square)
+    assert scenarios.polygon_distance(rotated, [[2.0, 0.0]])[0] == \
+        pytest.approx(2.0 - math.sqrt(0.5))
