@@ -104,6 +104,8 @@ class Collision:
 
 PERSON_RADIUS = 0.25
 """[m] a pedestrian's disc."""
+WALK_PERIOD = 0.1
+"""[s] how often people decide where to go."""
 
 
 def _distance_to_polygon(x: float, y: float, polygon: FloatArray) -> float:
@@ -161,6 +163,8 @@ class _Person:
     target: int
     direction: int
     speed: float
+    blocked: float = 0.0
+    """Seconds this person has been held up by a robot in their way."""
 
 
 class Simulation:
@@ -407,6 +411,17 @@ class Simulation:
                     if toward > allowed:
                         cut = toward - allowed
                         vx, vy = vx + ax / gap * cut, vy + ay / gap * cut
+            # held up by a robot (going on at under a fifth of their pace with one within
+            # 1.5 m) for 4 s, a person gives way: they turn back along their route
+            near = any(math.hypot(px - rx, py - ry) < 1.5 for rx, ry in robots)
+            if near and dist > 1e-9 and vx * ux + vy * uy < 0.2 * p.speed:
+                p.blocked += WALK_PERIOD
+                if p.blocked >= 4.0 and len(p.route) > 1:
+                    p.direction = -p.direction
+                    p.target = min(max(p.target + p.direction, 0), len(p.route) - 1)
+                    p.blocked = 0.0
+            else:
+                p.blocked = 0.0
             speed = math.hypot(vx, vy)
             if speed > 1.5:
                 vx, vy = vx * 1.5 / speed, vy * 1.5 / speed
