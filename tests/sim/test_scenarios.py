@@ -21,6 +21,7 @@ def read_rows(path):
         return list(csv.reader(f))
 
 
+@pytest.mark.slow
 def test_the_glass_room_is_driven_into_without_a_mask_and_avoided_with_one(tmp_path, capsys):
     """The lidar's map has no glass, so the planner goes straight through the meeting room
     and the robot touches the glass (Fig. 4.15 of the Uiabot paper); with the keep-out mask
@@ -45,6 +46,7 @@ def test_the_glass_room_is_driven_into_without_a_mask_and_avoided_with_one(tmp_p
     assert "1 goals reached" in capsys.readouterr().out.replace("100% of ", "")
 
 
+@pytest.mark.slow
 def test_navigation_while_mapping_reaches_the_goal_on_the_map_it_builds():
     """--localization slam: the navigator starts with nothing but unknown space, SLAM's map
     reaches it every 5 s, and the estimate stays on the truth all the way."""
