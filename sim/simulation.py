@@ -123,6 +123,27 @@ def _distance_to_polygon(x: float, y: float, polygon: FloatArray) -> float:
         best = min(best, math.hypot(x - x0 - t * ex, y - y0 - t * ey))
     return best
 
+
+def _keep_clear(px: float, py: float, vx: float, vy: float,
+                robots: list[tuple[float, float]], velocities: list[tuple[float, float]],
+                outlines: list[FloatArray]) -> tuple[float, float]:
+    """Nobody walks into a robot: the speed at which a person and a robot close in stays one
+    they can still stop from before touching it (feet brake at about 1.5 m/s² and people
+    decide ten times a second: 1 m/s² and 0.2 m kept); a robot coming at them faster than
+    that makes them step back."""
+    for (rx, ry), (rvx, rvy), outline in zip(robots, velocities, outlines, strict=True):
+        ax, ay = px - rx, py - ry
+        gap = math.hypot(ax, ay)
+        if 1e-6 < gap < 3.0:
+            clearance = _distance_to_polygon(px, py, outline) - PERSON_RADIUS
+            coming = max((rvx * ax + rvy * ay) / gap, 0.0)
+            allowed = math.sqrt(2.0 * 1.0 * max(clearance - 0.2, 0.0)) - coming
+            toward = -(vx * ax + vy * ay) / gap
+            if toward > allowed:
+                cut = toward - allowed
+                vx, vy = vx + ax / gap * cut, vy + ay / gap * cut
+    return vx, vy
+
 @dataclass
 class _Robot:
     description: RobotDescription
@@ -166,6 +187,19 @@ class _Person:
     blocked: float = 0.0
     """Seconds this person has been held up by a robot in their way."""
 
+
+
+def _give_way(p: _Person, held_up: bool) -> None:
+    """Held up by a robot (going on at under a fifth of their pace with one within 1.5 m) for
+    4 s, a person gives way: they turn back along their route."""
+    if not held_up:
+        p.blocked = 0.0
+        return
+    p.blocked += WALK_PERIOD
+    if p.blocked >= 4.0 and len(p.route) > 1:
+        p.direction = -p.direction
+        p.target = min(max(p.target + p.direction, 0), len(p.route) - 1)
+        p.blocked = 0.0
 
 class Simulation:
     """A world, one or more robots, their sensors and walking people, on a sim clock.
@@ -358,74 +392,62 @@ class Simulation:
                 dist = math.hypot(gx - px, gy - py)
             vx, vy = ((gx - px) / dist * p.speed, (gy - py) / dist * p.speed) if dist > 1e-9 \
                 else (0.0, 0.0)
-            # people keep out of robots' way: a push away from any robot within 1.5 m,
-            # stronger the closer it is (a "social force"), and a step sideways round a
-            # robot ahead of them (without it a person walking straight at a robot stops
-            # against it, pushed back as hard as they push on)
             ux, uy = (vx / p.speed, vy / p.speed) if dist > 1e-9 else (0.0, 0.0)
-            for rx, ry in robots:
-                ax, ay = px - rx, py - ry
-                gap = math.hypot(ax, ay)
-                if 1e-6 < gap < 1.5:
-                    push = (1.5 - gap) / gap * (2.0 if gap < 0.9 else 1.0)   # harder when near
-                    vx, vy = vx + ax * push, vy + ay * push
-                    if -(ax * ux + ay * uy) > 0.5 * gap:      # the robot within ±60° ahead
-                        # step away from the side the robot is on (right when dead ahead),
-                        # unless a wall there leaves no room to pass: then the other way
-                        away = -1.0 if ux * ay - uy * ax > 0.0 else 1.0   # +1: to the right
-                        if self._room(px, py, uy * away, -ux * away) < 0.8 <= \
-                                self._room(px, py, -uy * away, ux * away):
-                            away = -away
-                        side = p.speed * (1.5 - gap) / 1.5 * away
-                        vx, vy = vx + uy * side, vy - ux * side
-            for q in self.people:
-                # nor into each other: someone ahead within ±45° is passed on the right, and
-                # the same stopping rule holds between two people (each brakes for their part)
-                if q is p:
-                    continue
-                qx, qy = q.body.position
-                ax, ay = px - qx, py - qy
-                gap = math.hypot(ax, ay)
-                if 1e-6 < gap < 1.5:
-                    if -(ax * ux + ay * uy) > 0.7 * gap:
-                        side = 0.5 * p.speed * (1.5 - gap) / 1.5
-                        vx, vy = vx + uy * side, vy - ux * side
-                    allowed = math.sqrt(2.0 * 1.0 * max(gap - 2 * PERSON_RADIUS - 0.1, 0.0))
-                    toward = -(vx * ax + vy * ay) / gap
-                    if toward > allowed:
-                        cut = toward - allowed
-                        vx, vy = vx + ax / gap * cut, vy + ay / gap * cut
-            for (rx, ry), (rvx, rvy), outline in zip(robots, velocities, outlines,
-                                                      strict=True):
-                # nobody walks into a robot: the speed at which they and the robot close in
-                # stays one they can still stop from before touching it (their feet brake at
-                # about 1.5 m/s² and they decide ten times a second: 1 m/s² and 0.2 m kept);
-                # a robot coming at them faster than that makes them step back
-                ax, ay = px - rx, py - ry
-                gap = math.hypot(ax, ay)
-                if 1e-6 < gap < 3.0:
-                    clearance = _distance_to_polygon(px, py, outline) - PERSON_RADIUS
-                    coming = max((rvx * ax + rvy * ay) / gap, 0.0)
-                    allowed = math.sqrt(2.0 * 1.0 * max(clearance - 0.2, 0.0)) - coming
-                    toward = -(vx * ax + vy * ay) / gap
-                    if toward > allowed:
-                        cut = toward - allowed
-                        vx, vy = vx + ax / gap * cut, vy + ay / gap * cut
-            # held up by a robot (going on at under a fifth of their pace with one within
-            # 1.5 m) for 4 s, a person gives way: they turn back along their route
+            vx, vy = self._step_round_robots(px, py, vx, vy, ux, uy, p.speed, robots)
+            vx, vy = self._pass_people(p, px, py, vx, vy, ux, uy)
+            vx, vy = _keep_clear(px, py, vx, vy, robots, velocities, outlines)
             near = any(math.hypot(px - rx, py - ry) < 1.5 for rx, ry in robots)
-            if near and dist > 1e-9 and vx * ux + vy * uy < 0.2 * p.speed:
-                p.blocked += WALK_PERIOD
-                if p.blocked >= 4.0 and len(p.route) > 1:
-                    p.direction = -p.direction
-                    p.target = min(max(p.target + p.direction, 0), len(p.route) - 1)
-                    p.blocked = 0.0
-            else:
-                p.blocked = 0.0
+            _give_way(p, near and dist > 1e-9 and vx * ux + vy * uy < 0.2 * p.speed)
             speed = math.hypot(vx, vy)
             if speed > 1.5:
                 vx, vy = vx * 1.5 / speed, vy * 1.5 / speed
             p.ground.velocity = (vx, vy)
+
+    def _step_round_robots(self, px: float, py: float, vx: float, vy: float, ux: float,
+                           uy: float, pace: float, robots: list[tuple[float, float]]
+                           ) -> tuple[float, float]:
+        """People keep out of robots' way: a push away from any robot within 1.5 m, stronger
+        the closer it is (a "social force"), and a step sideways round a robot ahead of them
+        (without it a person walking straight at a robot stops against it, pushed back as
+        hard as they push on)."""
+        for rx, ry in robots:
+            ax, ay = px - rx, py - ry
+            gap = math.hypot(ax, ay)
+            if 1e-6 < gap < 1.5:
+                push = (1.5 - gap) / gap * (2.0 if gap < 0.9 else 1.0)   # harder when near
+                vx, vy = vx + ax * push, vy + ay * push
+                if -(ax * ux + ay * uy) > 0.5 * gap:      # the robot within ±60° ahead
+                    # step away from the side the robot is on (right when dead ahead),
+                    # unless a wall there leaves no room to pass: then the other way
+                    away = -1.0 if ux * ay - uy * ax > 0.0 else 1.0   # +1: to the right
+                    if self._room(px, py, uy * away, -ux * away) < 0.8 <= \
+                            self._room(px, py, -uy * away, ux * away):
+                        away = -away
+                    side = pace * (1.5 - gap) / 1.5 * away
+                    vx, vy = vx + uy * side, vy - ux * side
+        return vx, vy
+
+    def _pass_people(self, p: _Person, px: float, py: float, vx: float, vy: float, ux: float,
+                     uy: float) -> tuple[float, float]:
+        """Nor into each other: someone ahead within ±45° is passed on the right, and the
+        stopping rule of :func:`_keep_clear` holds between two people (each brakes for their
+        part)."""
+        for q in self.people:
+            if q is p:
+                continue
+            qx, qy = q.body.position
+            ax, ay = px - qx, py - qy
+            gap = math.hypot(ax, ay)
+            if 1e-6 < gap < 1.5:
+                if -(ax * ux + ay * uy) > 0.7 * gap:
+                    side = 0.5 * p.speed * (1.5 - gap) / 1.5
+                    vx, vy = vx + uy * side, vy - ux * side
+                allowed = math.sqrt(2.0 * 1.0 * max(gap - 2 * PERSON_RADIUS - 0.1, 0.0))
+                toward = -(vx * ax + vy * ay) / gap
+                if toward > allowed:
+                    cut = toward - allowed
+                    vx, vy = vx + ax / gap * cut, vy + ay / gap * cut
+        return vx, vy
 
     def _room(self, x: float, y: float, dx: float, dy: float, reach: float = 1.5) -> float:
         """Free distance [m] from (x, y) along the unit direction (dx, dy) to the nearest wall

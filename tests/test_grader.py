@@ -271,13 +271,41 @@ def notebook_with(path: Path, *sources: str) -> Path:
     return path
 
 
-def mutate(src_notebook: Path, dest: Path, old: str, new: str) -> Path:
+def mutate(src_notebook: Path, dest: Path, old: str, new: str,
+           definitions_only: bool = False) -> Path:
+    """The notebook with ``old`` replaced by ``new`` in its one cell holding it; with
+    ``definitions_only``, only the cells a grade depends on are kept (see
+    :func:`_what_grades_need`) — the demonstrations, simulations and plots go."""
     nb = nbformat.read(src_notebook, as_version=4)
     hits = [c for c in nb.cells if c.cell_type == "code" and old in c.source]
     assert len(hits) == 1, f"{old!r} must occur in exactly one cell"
     hits[0].source = hits[0].source.replace(old, new)
+    if definitions_only:
+        nb.cells = _what_grades_need(nb.cells)
     nbformat.write(nb, dest)
     return dest
+
+
+def _what_grades_need(cells: list) -> list:
+    """The notebook's first code cell (imports, ``checker``), its solution cells, and every
+    cell defining a name those use (transitively); the markdown; nothing else."""
+    import ast
+
+    from grader.runall import defined_names
+    from grader.worker import strip_magics
+
+    code = [c for c in cells if c.cell_type == "code"]
+    trees = {id(c): ast.parse(strip_magics(c.source)) for c in code}
+    kept = {id(code[0])} | {id(c) for c in code if "### BEGIN SOLUTION" in c.source}
+    while True:
+        used = {n.id for c in code if id(c) in kept for n in ast.walk(trees[id(c)])
+                if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+        more = {id(c) for c in code if id(c) not in kept and
+                used & set(defined_names(trees[id(c)]))}
+        if not more:
+            break
+        kept |= more
+    return [c for c in cells if c.cell_type != "code" or id(c) in kept]
 
 
 def lab_notebook(folder: Path, lab: str) -> Path:
@@ -463,7 +491,10 @@ BUGS = [
 def test_seeded_bugs_lose_exactly_their_exercise(tmp_path):
     by_lab: dict[str, list[tuple[Path, str, str]]] = {}
     for i, (lab, name, function, old, new, hint) in enumerate(BUGS):
-        path = mutate(SOLUTIONS / name, tmp_path / f"bug{i}.ipynb", old, new)
+        # the demonstrations are graded in test_solutions_score_full_...: here only what
+        # the grade depends on runs, which keeps this test a few minutes shorter
+        path = mutate(SOLUTIONS / name, tmp_path / f"bug{i}.ipynb", old, new,
+                      definitions_only=True)
         by_lab.setdefault(lab, []).append((path, function, hint))
     for lab, bugs in by_lab.items():
         spec = load_lab(lab)
