@@ -345,8 +345,8 @@ class NavigationNode(Node):
     def on_tick(self, time: float) -> Published:
         if self.done:
             return [("/cmd_vel", msgs.Twist())]
-        self._measure()
         pose = self.localization.pose(self.odom_pose)
+        self._measure(pose)
         before = len(self.navigator.events)
         v, w = self.navigator.tick(time, pose, self.velocity)
         out: list[tuple[str, Any]] = []
@@ -363,10 +363,9 @@ class NavigationNode(Node):
         out.append(("/cmd_vel", msgs.Twist(msgs.Vector3(v, 0.0, 0.0), msgs.Vector3(0, 0, w))))
         return out
 
-    def _measure(self) -> None:
+    def _measure(self, estimate: FloatArray) -> None:
         truth = self.sim.ground_truth(self.robot).pose
         self.trail.append(truth.copy())
-        estimate = self.localization.pose(self.odom_pose)
         self.pose_errors.append(float(np.hypot(*(estimate[:2] - truth[:2]))))
         self.distance += float(np.hypot(*(truth[:2] - self.last_xy)))
         self.last_xy = truth[:2].copy()

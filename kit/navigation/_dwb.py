@@ -42,7 +42,7 @@ from scipy import ndimage
 
 from kit import geometry
 from kit.navigation._costmap import footprint_costs, outline_points
-from kit.navigation._path import ControlError, check_path, closest_index
+from kit.navigation._path import ControlError, check_path, closest_index, require_positive
 from kit.planning import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, Costmap
 from kit.robots import RobotDescription
 
@@ -83,12 +83,9 @@ class DwbParameters:
         "GoalDist": 24.0, "RotateToGoal": 32.0, "Oscillation": 1.0})
 
     def __post_init__(self) -> None:
-        for name in ("max_vel_x", "max_vel_theta", "acc_lim_x", "acc_lim_theta", "sim_time",
-                     "linear_granularity", "angular_granularity", "controller_frequency"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"DwbParameters.{name} must be a positive number; got "
-                                 f"{value!r}")
+        require_positive(self, ("max_vel_x", "max_vel_theta", "acc_lim_x", "acc_lim_theta",
+                                "sim_time", "linear_granularity", "angular_granularity",
+                                "controller_frequency"))
         if self.decel_lim_x >= 0 or self.decel_lim_theta >= 0:
             raise ValueError("decel_lim_x and decel_lim_theta are negative (Nav2's sign)")
         if self.vx_samples < 1 or self.vtheta_samples < 1:

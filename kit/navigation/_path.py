@@ -11,7 +11,8 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["ControlError", "check_path", "closest_index", "lookahead_point", "remaining_length"]
+__all__ = ["ControlError", "check_path", "closest_index", "lookahead_point", "remaining_length",
+           "require_positive"]
 
 FloatArray = NDArray[np.float64]
 
@@ -80,3 +81,13 @@ def remaining_length(path: FloatArray, xy: FloatArray, index: int) -> float:
     rest = path[index:]
     along = float(np.sum(np.hypot(*np.diff(rest, axis=0).T))) if len(rest) > 1 else 0.0
     return along + float(np.hypot(rest[0, 0] - xy[0], rest[0, 1] - xy[1]))
+
+
+def require_positive(params: object, names: tuple[str, ...]) -> None:
+    """``ValueError`` naming the first of ``params``' fields ``names`` that is not a finite
+    positive number (the controllers' parameter checks)."""
+    for name in names:
+        value = getattr(params, name)
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ValueError(f"{type(params).__name__}.{name} must be a positive number; got "
+                             f"{value!r}")

@@ -30,6 +30,7 @@ from kit.navigation._path import (
     closest_index,
     lookahead_point,
     remaining_length,
+    require_positive,
 )
 from kit.planning import INSCRIBED_INFLATED_OBSTACLE, Costmap
 from kit.robots import RobotDescription
@@ -116,13 +117,10 @@ class RppParameters:
     controller_frequency: float = 20.0
 
     def __post_init__(self) -> None:
-        for name in ("desired_linear_vel", "lookahead_dist", "min_lookahead_dist",
-                     "max_lookahead_dist", "lookahead_time", "rotate_to_heading_angular_vel",
-                     "controller_frequency", "max_angular_accel", "max_linear_accel"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"RppParameters.{name} must be a positive number; got "
-                                 f"{value!r}")
+        require_positive(self, ("desired_linear_vel", "lookahead_dist", "min_lookahead_dist",
+                                "max_lookahead_dist", "lookahead_time",
+                                "rotate_to_heading_angular_vel", "controller_frequency",
+                                "max_angular_accel", "max_linear_accel"))
         if self.min_lookahead_dist > self.max_lookahead_dist:
             raise ValueError("min_lookahead_dist must not exceed max_lookahead_dist")
 
