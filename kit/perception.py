@@ -45,6 +45,7 @@ __all__ = [
     "max_range_beams",
     "range_filter",
     "returns_beyond",
+    "reverse_beam_order",
     "scan_to_points",
     "scan_to_points_tf",
     "valid_returns",
@@ -245,6 +246,39 @@ def scan_to_points_tf(scan: msgs.LaserScan, tree: TransformTree, target_frame: s
     p1 = np.einsum("nij,nj->ni", R[k + 1], local) + t[k + 1]
     in_fixed = (1.0 - f) * p0 + f * p1
     return tree.lookup_transform(target_frame, fixed_frame, t_ref).apply(in_fixed)[:, :2]
+
+
+def reverse_beam_order(scan: msgs.LaserScan, *, stamped_at_end: bool = False) -> msgs.LaserScan:
+    """The same scan with its beams listed in the opposite order, so that index order is the
+    order in which they were measured.
+
+    ``rplidar_ros`` (the RPLidar's ROS driver, on the TurtleBot 4 and the Uiabot) publishes
+    the beams counter-clockwise, from ``angle_min`` to ``angle_max``, while the device spins
+    clockwise: the last beam of its message was measured first. It also stamps the message
+    when the driver hands the finished revolution over, not when the first beam was taken.
+    De-skewing such a scan as published moves every beam the wrong way.
+
+    The returned scan lists the beams from the old last to the old first, with ``angle_min``
+    and ``angle_max`` swapped and a negative ``angle_increment``: every beam keeps its
+    direction and range. With ``stamped_at_end`` the stamp moves back by
+    ``(N - 1) * time_increment``, to the first measured beam, so that
+    ``header.stamp + i * time_increment`` is when beam ``i`` was measured, as the message's
+    convention says.
+    """
+    n = len(scan.ranges)
+    reversed_: dict[str, object] = {
+        "ranges": np.asarray(scan.ranges, dtype=np.float32)[::-1].copy()}
+    if len(scan.intensities):
+        reversed_["intensities"] = np.asarray(scan.intensities, dtype=np.float32)[::-1].copy()
+    if stamped_at_end and n > 1:
+        start = scan.header.stamp.to_nsec() - round(scan.time_increment * (n - 1) * 1e9)
+        reversed_["header"] = dataclasses.replace(
+            scan.header, stamp=msgs.Time(sec=start // 1_000_000_000,
+                                         nanosec=start % 1_000_000_000))
+    last = scan.angle_min + scan.angle_increment * (n - 1)
+    return dataclasses.replace(scan, angle_min=float(last), angle_max=float(scan.angle_min),
+                               angle_increment=-float(scan.angle_increment),
+                               **reversed_)  # type: ignore[arg-type]
 
 
 # ---------------------------------------------------------------- filters (laser_filters)

@@ -54,10 +54,11 @@ from kit.localization.likelihood_field import (
     likelihood_field_weights,
 )
 from kit.localization.particles import ParticleFilter, uniform_free_poses
-from kit.perception import scan_to_points_tf
+from kit.perception import reverse_beam_order, scan_to_points_tf
 from kit.tf import ExtrapolationError, RigidTransform, TransformTree
 
 __all__ = [
+    "SCAN_TIMINGS",
     "Amcl",
     "AmclParameters",
     "LocalizationStep",
@@ -463,16 +464,29 @@ class LocalizationStep:
     """The particles after an update (None when the filter did not update)."""
 
 
+SCAN_TIMINGS = ("ros", "rplidar_ros")
+
+
 def localize(messages: Iterable[tuple[str, msgs.Message]], node: Amcl, *,
              scan_topic: str = "/scan", tf_topic: str = "/tf",
-             tf_static_topic: str = "/tf_static") -> Iterator[LocalizationStep]:
+             tf_static_topic: str = "/tf_static",
+             scan_timing: str = "ros") -> Iterator[LocalizationStep]:
     """Run ``node`` over time-ordered ``(topic, message)`` pairs (a bag's messages).
+
+    ``scan_timing`` says when the scanner measured each beam: ``"ros"`` as the
+    ``LaserScan`` convention has it (beam ``i`` at ``stamp + i * time_increment``);
+    ``"rplidar_ros"`` as the RPLidar's ROS driver publishes (the beams in the reverse order
+    of measurement and the stamp at the end of the revolution). Such scans are first put in
+    measurement order with :func:`kit.perception.reverse_beam_order`, so each step's scan, its
+    stamp and its pose are those of the scan's first measured beam.
 
     Transforms go into a :class:`TransformTree`; a scan waits (as behind tf2's message filter)
     until the odometry covers its stamp, then goes through :meth:`Amcl.process`. One
     :class:`LocalizationStep` per scan, in order; a scan the odometry never covers (before its
     first sample, or after its last) is reported with NaN poses.
     """
+    if scan_timing not in SCAN_TIMINGS:
+        raise ValueError(f"scan_timing is one of {', '.join(SCAN_TIMINGS)}; got {scan_timing!r}")
     p = node.params
     tree = TransformTree(cache_time=30.0)
     waiting: deque[msgs.LaserScan] = deque()
@@ -505,7 +519,8 @@ def localize(messages: Iterable[tuple[str, msgs.Message]], node: Amcl, *,
             tree.add_message(message)
             newest = max([newest, *(t.header.stamp.to_sec() for t in message.transforms)])
         elif topic == scan_topic and isinstance(message, msgs.LaserScan):
-            waiting.append(message)
+            waiting.append(message if scan_timing == "ros" else
+                           reverse_beam_order(message, stamped_at_end=True))
         while waiting:
             state, found = attempt(waiting[0])
             if state == "later":

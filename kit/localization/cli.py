@@ -11,6 +11,19 @@ and writes into ``DIR``:
 
 Without ``--initial`` the filter starts from a uniform spread of particles over the map's free
 cells (global localization); with it, from Nav2's initial-pose spread around that pose.
+
+Parameters: Nav2's ``amcl`` defaults, or the file given with ``--params``. Nav2's 2,000
+particles and 60 beams cannot find a robot on a whole building floor, so a global start with
+no ``--params`` uses 30,000 particles (KLD-sampling brings the count down as the cloud
+gathers), 120 beams and an update every 0.1 m or 0.1 rad.
+
+Scan timing (``--scan-timing``): ``ros`` takes beam ``i`` as measured at
+``stamp + i * time_increment``, as the ``LaserScan`` message says; ``rplidar_ros`` is how the
+RPLidar's ROS driver really publishes — the beams in the reverse order of measurement, the
+stamp when the revolution was finished — so each scan is first put back in measurement order
+and stamped at its first beam (:func:`kit.perception.reverse_beam_order`), and the rows of
+``poses.csv`` carry that stamp. ``auto`` (the default) picks ``rplidar_ros`` when the scan's
+frame is named like the driver's (``rplidar…``), ``ros`` otherwise, and says which.
 """
 
 from __future__ import annotations
@@ -23,8 +36,15 @@ from typing import Any
 
 import numpy as np
 
-from kit import geometry, maps
-from kit.localization.amcl import Amcl, AmclParameters, LocalizationStep, load_parameters, localize
+from kit import geometry, maps, msgs
+from kit.localization.amcl import (
+    SCAN_TIMINGS,
+    Amcl,
+    AmclParameters,
+    LocalizationStep,
+    load_parameters,
+    localize,
+)
 
 __all__ = ["main", "register"]
 
@@ -40,9 +60,25 @@ def register(subparsers: Any) -> None:
     p.add_argument("--initial", help="x,y,yaw [m, m, rad]: start around this pose")
     p.add_argument("--seed", type=int, help="seed of the filter's random numbers")
     p.add_argument("--scan-topic", default="/scan")
+    p.add_argument("--scan-timing", choices=("auto", *SCAN_TIMINGS), default="auto",
+                   help="when each beam was measured (see above; default: auto)")
     p.add_argument("--out", required=True, type=Path, help="output folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_run)
+
+
+GLOBAL_START: dict[str, Any] = {"max_particles": 30000, "min_particles": 2000, "max_beams": 120,
+                "update_min_d": 0.1, "update_min_a": 0.1}
+"""The parameters a global start uses when no ``--params`` file is given."""
+
+
+def _scan_frame(bag_path: Path, topic: str) -> str | None:
+    from kit import bag
+
+    for _, _, message in bag.read_bag(bag_path, [topic]):
+        if isinstance(message, msgs.LaserScan):
+            return message.header.frame_id
+    return None
 
 
 def _initial(text: str | None) -> np.ndarray | None:
@@ -99,8 +135,18 @@ def _run(args: argparse.Namespace) -> int:
     if not Path(args.bag).exists():
         raise ValueError(f"{args.bag}: no such bag")
     start = _initial(args.initial)
-    params = load_parameters(args.params) if args.params else AmclParameters()
+    if args.params:
+        params = load_parameters(args.params)
+    elif start is None:
+        params = AmclParameters(**GLOBAL_START)
+    else:
+        params = AmclParameters()
     grid = maps.read_map(args.map)
+    timing = args.scan_timing
+    if timing == "auto":
+        frame = _scan_frame(args.bag, args.scan_topic)
+        timing = "rplidar_ros" if frame is not None and "rplidar" in frame.lower() else "ros"
+        print(f"scan timing: {timing} (scan frame {frame!r}; --scan-timing to choose)")
     node = Amcl(grid, params, seed=args.seed)
     if start is None:
         node.initialize_global()
@@ -113,7 +159,8 @@ def _run(args: argparse.Namespace) -> int:
     with (out / "poses.csv").open("w", encoding="utf-8") as f, \
             tqdm(unit="scan", desc="localize", disable=args.quiet, file=sys.stderr) as bar:
         f.write("stamp,x,y,yaw,std_x,std_y,std_yaw\n")
-        for step in localize(messages, node, scan_topic=args.scan_topic):
+        for step in localize(messages, node, scan_topic=args.scan_topic,
+                             scan_timing=timing):
             f.write(_csv_row(step))
             steps.append(step)
             bar.update(1)

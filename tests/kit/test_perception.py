@@ -107,3 +107,38 @@ def test_depth_row_of_a_wall_gives_the_range_along_each_ray():
     column = np.argmin(np.abs(along_rays[None, :] - ranges[filled, None])
                        + 10 * np.abs(-phi[None, :] - beam_angle[filled, None]), axis=1)
     assert np.all(np.abs(-phi[column] - beam_angle[filled]) <= scan.angle_increment + 1e-9)
+
+
+def test_reverse_beam_order_keeps_every_beam_and_puts_them_in_measurement_order():
+    # rplidar_ros's publish_scan with inverted=false: angle_min = π − 359°, angle_max = π,
+    # and message index k holds the node measured (N − 1 − k)-th; the bag's stamp is when the
+    # revolution was handed over (its last-measured beam).
+    n, dt = 720, 1.871e-4
+    scan = msgs.LaserScan(header=msgs.Header(msgs.Time(1663967375, 543606542), "rplidar_link"),
+                          angle_min=np.pi - np.radians(359.0), angle_max=np.pi,
+                          angle_increment=np.radians(0.5), time_increment=dt,
+                          scan_time=dt * (n - 1), range_min=0.15, range_max=12.0,
+                          ranges=np.where(np.arange(n) == 10, np.inf, np.linspace(0.5, 5.0, n)),
+                          intensities=np.arange(n))
+    out = perception.reverse_beam_order(scan)
+    assert np.array_equal(out.ranges, scan.ranges[::-1], equal_nan=True)
+    assert np.array_equal(out.intensities, scan.intensities[::-1])
+    assert out.angle_increment == pytest.approx(-scan.angle_increment)
+    assert out.angle_min == pytest.approx(scan.angle_min + (n - 1) * scan.angle_increment)
+    assert out.header.stamp == scan.header.stamp               # not asked to move it
+    # the same points, the other way round (to the message's float32 angle fields: 3e-7 rad)
+    assert np.allclose(perception.scan_to_points(out), perception.scan_to_points(scan)[::-1],
+                       rtol=0, atol=2e-6)
+    assert np.allclose(perception.beam_angles(out), perception.beam_angles(scan)[::-1],
+                       rtol=0, atol=4e-7)
+    # stamped at the end: the first measured beam (old index N − 1) is at stamp − (N−1)·dt
+    at_start = perception.reverse_beam_order(scan, stamped_at_end=True)
+    old_times = scan.header.stamp.to_sec() - scan.time_increment * np.arange(n)  # stamp − k·dt
+    assert np.allclose(perception.beam_times(at_start), old_times[::-1], atol=1e-6, rtol=0)  # µs
+    assert at_start.header.stamp.to_nsec() == scan.header.stamp.to_nsec() - round(
+        scan.time_increment * (n - 1) * 1e9)
+    assert at_start.header.frame_id == "rplidar_link"
+    # twice is the identity for the beams
+    back = perception.reverse_beam_order(out)
+    assert np.array_equal(back.ranges, scan.ranges)
+    assert back.angle_min == pytest.approx(scan.angle_min)
