@@ -28,6 +28,7 @@ the wheels' contact points) and orders wheel pairs (right, left), the IGV's incl
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -158,9 +159,16 @@ def inverse_kinematics(body_velocity: ArrayLike, wheel_radius: float,
     [3.61, -3.61]
     """
     xi = _last_axis(body_velocity, 3, "body_velocity", "[x_dot, y_dot, theta_dot]")
+    return xi @ _inverse_jacobian(float(wheel_radius), float(wheel_separation)).T
+
+
+@functools.lru_cache(maxsize=64)
+def _inverse_jacobian(wheel_radius: float, wheel_separation: float) -> FloatArray:
+    """``B⁺ A`` (2, 3), kept per robot: a simulator asks for it at every command."""
     A, B = constraint_matrices(wheel_radius, wheel_separation)
-    J = np.linalg.pinv(B) @ A  # (2, 3)
-    return xi @ J.T
+    J = np.linalg.pinv(B) @ A
+    J.flags.writeable = False
+    return J
 
 
 def twist_to_wheel_speeds(linear: ArrayLike, angular: ArrayLike, wheel_radius: float,

@@ -28,6 +28,7 @@ navigates on it, its ``map → odom`` with the odometry).
 from __future__ import annotations
 
 import csv
+import dataclasses
 import itertools
 import math
 from collections.abc import Sequence
@@ -37,6 +38,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
 
 from kit import geometry, msgs, perception
 from kit.localization import Amcl, AmclParameters
@@ -187,14 +189,21 @@ class SlamLocalization:
     seconds (SLAM Toolbox's default: 5 s) its map is published to the navigator, drawn on
     ``canvas`` — the global costmap's fixed extent — with unknown space left unknown (which
     the planner may cross, as Nav2's ``allow_unknown``). The map frame is the start pose's
-    frame in the world's coordinates, so that goals given in the world mean the same."""
+    frame in the world's coordinates, so that goals given in the world mean the same.
+
+    People are not part of the building, and a scan matcher cannot tell them from walls: a
+    person walking beside the robot drags the match along. So before a scan reaches SLAM,
+    its returns that end in space the last published map has seen free — farther than
+    ``dynamic_margin`` from anything not free — are dropped (set to NaN, "no reading") as
+    something that moves; returns in unknown space, and near walls, are kept."""
 
     name = "slam"
 
     def __init__(self, canvas: msgs.OccupancyGrid, map_update_interval: float = 5.0,
                  config: SlamConfig | None = None, minimum_travel_distance: float = 0.5,
-                 minimum_travel_heading: float = 0.5) -> None:
+                 minimum_travel_heading: float = 0.5, dynamic_margin: float = 0.15) -> None:
         self.canvas = canvas
+        self.dynamic_margin = float(dynamic_margin)
         self.map_update_interval = float(map_update_interval)
         self.config = config
         self.minimum_travel_distance = float(minimum_travel_distance)
@@ -202,8 +211,10 @@ class SlamLocalization:
 
     def start(self, sim: Simulation, robot: int, odom_pose: FloatArray) -> None:
         mount = sim.description(robot).joint("laser_joint")
-        self.slam = Slam((float(mount.xyz[0]), float(mount.xyz[1]), float(mount.rpy[2])),
-                         self.config)
+        self.mount = np.array([mount.xyz[0], mount.xyz[1], mount.rpy[2]], dtype=float)
+        self.slam = Slam(tuple(self.mount), self.config)
+        self.seen_free: NDArray[np.bool_] | None = None  # canvas cells far inside free space
+        self.dropped = 0       # returns dropped as moving things
         self.start_offset = geometry.compose(sim.ground_truth(robot).pose,
                                              geometry.inverse(odom_pose))
         self.map_to_odom = self.start_offset
@@ -223,6 +234,7 @@ class SlamLocalization:
                     abs(step[2]) < self.minimum_travel_heading:
                 return
         self.last_odom = np.asarray(odom_pose, dtype=float).copy()
+        scan = self._without_moving_things(scan, self.pose(odom_pose))
         now = scan.header.stamp.to_sec() if time is None else float(time)
         v, w = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
         motion = arc_poses(np.zeros(3), v, w, perception.beam_times(scan) - now)
@@ -233,13 +245,49 @@ class SlamLocalization:
     def pose(self, odom_pose: FloatArray) -> FloatArray:
         return geometry.compose(self.map_to_odom, odom_pose)
 
+    def _without_moving_things(self, scan: msgs.LaserScan, pose: FloatArray) -> msgs.LaserScan:
+        if self.seen_free is None:
+            return scan
+        kept, dropped = drop_returns_in(scan, geometry.compose(pose, self.mount),
+                                        self.seen_free, self.canvas.info)
+        self.dropped += dropped
+        return kept
+
     def new_map(self, time: float) -> msgs.OccupancyGrid | None:
         """SLAM's map on the canvas when one is due, else ``None``."""
         if time < self.next_map or not self.slam.nodes:
             return None
         self.next_map = time + self.map_update_interval
         self.maps += 1
-        return on_canvas(self.slam.occupancy_map(self.canvas.info.resolution), self.canvas)
+        grid = on_canvas(self.slam.occupancy_map(self.canvas.info.resolution), self.canvas)
+        self.seen_free = seen_free(grid, self.dynamic_margin)
+        return grid
+
+
+def seen_free(grid: msgs.OccupancyGrid, margin: float) -> NDArray[np.bool_]:
+    """The cells of ``grid`` (rows from its origin) that are free and farther than ``margin``
+    [m] from every cell that is not (occupied or unknown)."""
+    info = grid.info
+    free = np.asarray(grid.data).reshape(info.height, info.width) == 0
+    return np.asarray(ndimage.distance_transform_edt(free) * info.resolution > margin)
+
+
+def drop_returns_in(scan: msgs.LaserScan, laser_pose: ArrayLike, mask: NDArray[np.bool_],
+                    info: msgs.MapMetaData) -> tuple[msgs.LaserScan, int]:
+    """``scan`` with the returns that end in a ``mask`` cell set to NaN (no reading), the
+    scanner at ``laser_pose`` in the map; and how many were dropped."""
+    valid = np.flatnonzero(perception.valid_returns(scan))
+    ends = perception.scan_to_points(scan, laser_pose)
+    col = np.floor((ends[:, 0] - info.origin.position.x) / info.resolution).astype(np.int64)
+    row = np.floor((ends[:, 1] - info.origin.position.y) / info.resolution).astype(np.int64)
+    inside = (row >= 0) & (row < info.height) & (col >= 0) & (col < info.width)
+    moving = np.zeros(len(ends), dtype=bool)
+    moving[inside] = mask[row[inside], col[inside]]
+    if not moving.any():
+        return scan, 0
+    r = np.asarray(scan.ranges, dtype=np.float32).copy()
+    r[valid[moving]] = np.nan
+    return dataclasses.replace(scan, ranges=r), int(moving.sum())
 
 
 def on_canvas(grid: OccupancyGridMap, canvas: msgs.OccupancyGrid) -> msgs.OccupancyGrid:
@@ -371,10 +419,14 @@ class NavigationNode(Node):
         self.last_xy = truth[:2].copy()
         people = self.sim.people_positions()
         if len(people):
-            polygon = geometry.transform_points(truth, self.sim.description(self.robot)
-                                                .footprint)
-            self.min_gap = min(self.min_gap, float(np.min(
-                polygon_distance(polygon, people))) - 0.25)
+            footprint = np.asarray(self.sim.description(self.robot).footprint, dtype=float)
+            # nobody nearer than the gap so far can lower it: skip the polygon then
+            reach = float(np.max(np.hypot(footprint[:, 0], footprint[:, 1])))
+            near = np.hypot(*(people - truth[:2]).T) - reach - 0.25 < self.min_gap
+            if near.any():
+                polygon = geometry.transform_points(truth, footprint)
+                self.min_gap = min(self.min_gap, float(np.min(
+                    polygon_distance(polygon, people[near]))) - 0.25)
 
     def _finish(self, time: float, reached: bool, reason: str) -> None:
         new = [c for c in self.sim.collisions[self.collisions_before:] if c.robot == self.robot]

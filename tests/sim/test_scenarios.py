@@ -107,3 +107,36 @@ def test_the_person_gap_is_the_distance_to_the_footprints_outline():
     rotated = geometry.transform_points([0.0, 0.0, math.pi / 4], square)
     assert scenarios.polygon_distance(rotated, [[2.0, 0.0]])[0] == \
         pytest.approx(2.0 - math.sqrt(0.5))
+
+
+def test_slam_drops_the_returns_of_a_person_in_seen_free_space_and_keeps_the_walls():
+    """What a person adds to a scan ends in space the map has seen free; the walls' returns
+    end on the map's walls. Ranges ray-cast in the office's own map (AMCL's caster), a person
+    (a 0.25 m circle) put in the corridor in front of the scanner."""
+    from kit.localization.likelihood_field import LikelihoodField, expected_ranges
+    from sim.world import load_world
+
+    grid = load_world("office").occupancy_grid(0.05, layer="lidar")
+    laser = np.array([4.0, 6.0, 0.0])
+    angles = np.radians(np.arange(-180.0, 180.0, 1.0))
+    walls = expected_ranges(LikelihoodField.from_grid(grid), laser, angles, 12.0)
+    centre, radius = np.array([5.5, 6.1]), 0.25
+    d = np.column_stack([np.cos(angles), np.sin(angles)])
+    along = d @ (centre - laser[:2])                       # the beam's closest approach
+    gap2 = radius**2 - (np.sum((centre - laser[:2]) ** 2) - along**2)
+    person = (gap2 > 0) & (along > 0)
+    ranges = np.where(person, along - np.sqrt(np.maximum(gap2, 0.0)), walls)
+    assert 10 <= person.sum() <= 25 and np.all(ranges[person] < walls[person])
+    scan = msgs.LaserScan(angle_min=float(angles[0]), angle_increment=float(np.radians(1.0)),
+                          range_min=0.1, range_max=12.0, ranges=ranges)
+    mask = scenarios.seen_free(grid, 0.15)
+    out, dropped = scenarios.drop_returns_in(scan, laser, mask, grid.info)
+    gone = np.isnan(out.ranges)
+    assert dropped == gone.sum() == person.sum()
+    assert np.array_equal(gone, person)                    # the person's, and no wall's
+    kept = ~person & np.isfinite(ranges) & (ranges < 12.0)
+    assert np.array_equal(out.ranges[kept], scan.ranges[kept])
+    # a map that has seen nothing free keeps everything; the scan given is not changed
+    unknown = np.zeros_like(mask)
+    same, none = scenarios.drop_returns_in(scan, laser, unknown, grid.info)
+    assert none == 0 and same is scan and not np.isnan(scan.ranges).any()
