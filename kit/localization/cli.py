@@ -67,8 +67,9 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=_run)
 
 
-GLOBAL_START: dict[str, Any] = {"max_particles": 30000, "min_particles": 2000, "max_beams": 120,
-                "update_min_d": 0.1, "update_min_a": 0.1}
+GLOBAL_START: dict[str, Any] = {
+    "max_particles": 30000, "min_particles": 2000, "max_beams": 120,
+    "update_min_d": 0.1, "update_min_a": 0.1}
 """The parameters a global start uses when no ``--params`` file is given."""
 
 
