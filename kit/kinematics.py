@@ -131,9 +131,7 @@ def forward_kinematics(wheel_speeds: ArrayLike, wheel_radius: float,
     True
     """
     phi = _last_axis(wheel_speeds, 2, "wheel_speeds", "[right, left] wheel speeds in rad/s")
-    A, B = constraint_matrices(wheel_radius, wheel_separation)
-    J = np.linalg.pinv(A) @ B  # (3, 2)
-    return phi @ J.T
+    return phi @ _jacobians(float(wheel_radius), float(wheel_separation))[0].T
 
 
 def inverse_kinematics(body_velocity: ArrayLike, wheel_radius: float,
@@ -159,16 +157,17 @@ def inverse_kinematics(body_velocity: ArrayLike, wheel_radius: float,
     [3.61, -3.61]
     """
     xi = _last_axis(body_velocity, 3, "body_velocity", "[x_dot, y_dot, theta_dot]")
-    return xi @ _inverse_jacobian(float(wheel_radius), float(wheel_separation)).T
+    return xi @ _jacobians(float(wheel_radius), float(wheel_separation))[1].T
 
 
 @functools.lru_cache(maxsize=64)
-def _inverse_jacobian(wheel_radius: float, wheel_separation: float) -> FloatArray:
-    """``B⁺ A`` (2, 3), kept per robot: a simulator asks for it at every command."""
+def _jacobians(wheel_radius: float, wheel_separation: float) -> tuple[FloatArray, FloatArray]:
+    """``A⁺ B`` (3, 2) and ``B⁺ A`` (2, 3), kept per robot: odometry and the simulator ask
+    for them at every message and every command."""
     A, B = constraint_matrices(wheel_radius, wheel_separation)
-    J = np.linalg.pinv(B) @ A
-    J.flags.writeable = False
-    return J
+    forward, inverse = np.linalg.pinv(A) @ B, np.linalg.pinv(B) @ A
+    forward.flags.writeable = inverse.flags.writeable = False
+    return forward, inverse
 
 
 def twist_to_wheel_speeds(linear: ArrayLike, angular: ArrayLike, wheel_radius: float,

@@ -352,6 +352,8 @@ class NavigationNode(Node):
         self.sim, self.robot = sim, robot
         joint = sim.description(robot).joint("laser_joint")
         self.mount_pose = np.array([joint.xyz[0], joint.xyz[1], joint.rpy[2]], dtype=float)
+        self.footprint = np.asarray(sim.description(robot).footprint, dtype=float)
+        self.reach = float(np.max(np.hypot(self.footprint[:, 0], self.footprint[:, 1])))
         self.odom_pose = sim.ground_truth(robot).pose.copy()
         self.velocity = np.zeros(2)
         self.localization.start(sim, robot, self.odom_pose)
@@ -419,12 +421,10 @@ class NavigationNode(Node):
         self.last_xy = truth[:2].copy()
         people = self.sim.people_positions()
         if len(people):
-            footprint = np.asarray(self.sim.description(self.robot).footprint, dtype=float)
             # nobody nearer than the gap so far can lower it: skip the polygon then
-            reach = float(np.max(np.hypot(footprint[:, 0], footprint[:, 1])))
-            near = np.hypot(*(people - truth[:2]).T) - reach - 0.25 < self.min_gap
+            near = np.hypot(*(people - truth[:2]).T) - self.reach - 0.25 < self.min_gap
             if near.any():
-                polygon = geometry.transform_points(truth, footprint)
+                polygon = geometry.transform_points(truth, self.footprint)
                 self.min_gap = min(self.min_gap, float(np.min(
                     polygon_distance(polygon, people[near]))) - 0.25)
 

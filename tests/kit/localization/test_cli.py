@@ -75,8 +75,9 @@ def test_kit_localize_finds_the_real_turtlebot4_and_every_scan_then_fits_the_bui
     grid = maps.read_map(map_file)
     info = grid.info
     cells = np.argwhere(grid.data.reshape(info.height, info.width) == 100)
-    tree = cKDTree(np.column_stack([info.origin.position.x + (cells[:, 1] + 0.5) * 0.03,
-                                    info.origin.position.y + (cells[:, 0] + 0.5) * 0.03]))
+    res = info.resolution
+    tree = cKDTree(np.column_stack([info.origin.position.x + (cells[:, 1] + 0.5) * res,
+                                    info.origin.position.y + (cells[:, 0] + 0.5) * res]))
     spread = np.array([max(float(r["std_x"]), float(r["std_y"])) if r["x"] else np.inf
                        for r in rows])
     settled = next(k for k in range(len(rows)) if np.all(spread[k:] < 0.3))
