@@ -50,7 +50,7 @@ def wrap_angle(angle: ArrayLike) -> FloatArray:
     >>> float(wrap_angle(np.pi))
     -3.141592653589793
     """
-    if type(angle) is float:  # the simulator's hot path: the same arithmetic without numpy
+    if isinstance(angle, float):  # float, np.float64: the same arithmetic without numpy
         w = (angle + math.pi) % (2.0 * math.pi) - math.pi
         return np.asarray(w - 2.0 * math.pi if w >= math.pi else w)
     a = np.asarray(angle, dtype=np.float64)
@@ -67,7 +67,9 @@ def check_pose(pose: ArrayLike, name: str = "pose") -> FloatArray:
             f"{name} must have shape (3,) or (N, 3) as (x [m], y [m], theta [rad]); "
             f"got shape {p.shape}"
         )
-    if not np.all(np.isfinite(p)):
+    finite = (all(map(math.isfinite, p.tolist())) if p.ndim == 1   # one pose: no ufunc
+              else bool(np.all(np.isfinite(p))))
+    if not finite:
         raise ValueError(f"{name} contains NaN or infinite values: {p}")
     return p
 
@@ -88,6 +90,12 @@ def compose(a: ArrayLike, b: ArrayLike) -> FloatArray:
     [1.0, 1.0, 1.570796326795]
     """
     pa, pb = check_pose(a, "a"), check_pose(b, "b")
+    if pa.ndim == 1 and pb.ndim == 1:   # two single poses: the same arithmetic on floats
+        xa, ya, ta = pa.tolist()
+        xb, yb, tb = pb.tolist()
+        c1, s1 = math.cos(ta), math.sin(ta)
+        return np.array([xa + c1 * xb - s1 * yb, ya + s1 * xb + c1 * yb,
+                         float(wrap_angle(ta + tb))])
     c, s = np.cos(pa[..., 2]), np.sin(pa[..., 2])
     x = pa[..., 0] + c * pb[..., 0] - s * pb[..., 1]
     y = pa[..., 1] + s * pb[..., 0] + c * pb[..., 1]
@@ -98,6 +106,10 @@ def compose(a: ArrayLike, b: ArrayLike) -> FloatArray:
 def inverse(a: ArrayLike) -> FloatArray:
     """SE(2) inverse ``⊖a``, so that ``compose(a, inverse(a))`` is the identity."""
     pa = check_pose(a, "a")
+    if pa.ndim == 1:                    # one pose: the same arithmetic on floats
+        xa, ya, ta = pa.tolist()
+        c1, s1 = math.cos(ta), math.sin(ta)
+        return np.array([-c1 * xa - s1 * ya, s1 * xa - c1 * ya, float(wrap_angle(-ta))])
     c, s = np.cos(pa[..., 2]), np.sin(pa[..., 2])
     x = -c * pa[..., 0] - s * pa[..., 1]
     y = s * pa[..., 0] - c * pa[..., 1]

@@ -87,11 +87,14 @@ def tick_delta(previous: ArrayLike, current: ArrayLike,
     """
     if not isinstance(counter_bits, (int, np.integer)) or not 2 <= counter_bits <= 63:
         raise ValueError(f"counter_bits must be an integer from 2 to 63; got {counter_bits!r}")
+    modulus = 1 << int(counter_bits)
+    if type(previous) is int and type(current) is int:   # one reading, as a node gets it
+        d = (current - previous) % modulus
+        return np.array(d - modulus if d >= modulus // 2 else d, dtype=np.int64)
     prev = np.asarray(previous)
     cur = np.asarray(current)
     if prev.dtype.kind not in "iu" or cur.dtype.kind not in "iu":
         raise TypeError(f"encoder readings must be integers; got {prev.dtype} and {cur.dtype}")
-    modulus = 1 << int(counter_bits)
     d = (cur.astype(np.int64) - prev.astype(np.int64)) % modulus
     return np.where(d >= modulus // 2, d - modulus, d).astype(np.int64)
 
@@ -114,8 +117,18 @@ def _increments(theta: FloatArray, d_right: FloatArray, d_left: FloatArray,
     else:
         heading = theta + 0.5 * dtheta
         # np.sinc(x) = sin(pi x)/(pi x): the chord of the arc is Δs sin(Δθ/2)/(Δθ/2)
-        length = ds * np.sinc(dtheta / (2.0 * np.pi)) if method == "exact" else ds
+        length = ds * _sinc(dtheta / (2.0 * np.pi)) if method == "exact" else ds
+    if isinstance(heading, float):   # one step (float or np.float64): math, as numpy computes
+        return length * math.cos(heading), length * math.sin(heading), dtheta
     return length * np.cos(heading), length * np.sin(heading), dtheta
+
+
+def _sinc(x: FloatArray) -> FloatArray:
+    """``np.sinc``, with the same arithmetic on a scalar without the ufunc calls."""
+    if isinstance(x, float):
+        y = math.pi * (x if x != 0 else 1.0e-20)
+        return math.sin(y) / y
+    return np.sinc(x)
 
 
 def odometry_step(pose: ArrayLike, d_right: float, d_left: float, wheel_separation: float,
@@ -230,6 +243,11 @@ def odometry_covariance_step(covariance: ArrayLike, pose: ArrayLike, d_right: fl
     return 0.5 * (P_new + P_new.T)  # keep it exactly symmetric
 
 
+# flat indices of (x, y, yaw) × (x, y, yaw) and of the z, roll, pitch diagonal in a 6×6
+_ROS_XY_YAW = np.array([6 * r + c for r in (0, 1, 5) for c in (0, 1, 5)])
+_ROS_UNUSED = np.array([14, 21, 28])
+
+
 def covariance_to_ros(covariance_xy_yaw: ArrayLike) -> FloatArray:
     """Embed a 3×3 (x, y, yaw) covariance into ROS's row-major 6×6 (x, y, z, roll, pitch, yaw).
 
@@ -238,11 +256,10 @@ def covariance_to_ros(covariance_xy_yaw: ArrayLike) -> FloatArray:
     C = np.asarray(covariance_xy_yaw, dtype=np.float64)
     if C.shape != (3, 3):
         raise ValueError(f"covariance must have shape (3, 3); got {C.shape}")
-    full = np.zeros((6, 6))
-    idx = np.array([0, 1, 5])
-    full[np.ix_(idx, idx)] = C
-    full[2, 2] = full[3, 3] = full[4, 4] = UNUSED_VARIANCE
-    return full.ravel()
+    full = np.zeros(36)
+    full[_ROS_XY_YAW] = C.ravel()
+    full[_ROS_UNUSED] = UNUSED_VARIANCE
+    return full
 
 
 def odometry_message(pose: ArrayLike, velocity: ArrayLike, stamp: msgs.Time,
@@ -257,17 +274,23 @@ def odometry_message(pose: ArrayLike, velocity: ArrayLike, stamp: msgs.Time,
     v = np.asarray(velocity, dtype=np.float64)
     if v.shape != (2,):
         raise ValueError(f"velocity must be (v [m/s], omega [rad/s]); got shape {v.shape}")
-    q = geometry.yaw_to_quaternion(p[2])
+    x, y, yaw = p.tolist()
+    v_lin, v_ang = v.tolist()
     zeros3 = np.zeros((3, 3))
+    # fresh arrays made read-only: the messages keep them instead of copying
+    pose_cov = covariance_to_ros(pose_covariance if pose_covariance is not None else zeros3)
+    twist_cov = covariance_to_ros(twist_covariance if twist_covariance is not None else zeros3)
+    pose_cov.flags.writeable = twist_cov.flags.writeable = False
     return msgs.Odometry(
         header=msgs.Header(stamp, frame_id),
         child_frame_id=child_frame_id,
         pose=msgs.PoseWithCovariance(
-            msgs.Pose(msgs.Point(float(p[0]), float(p[1]), 0.0), msgs.Quaternion(*map(float, q))),
-            covariance_to_ros(pose_covariance if pose_covariance is not None else zeros3)),
+            msgs.Pose(msgs.Point(x, y, 0.0),
+                      msgs.Quaternion(0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))),
+            pose_cov),
         twist=msgs.TwistWithCovariance(
-            msgs.Twist(msgs.Vector3(float(v[0]), 0.0, 0.0), msgs.Vector3(0.0, 0.0, float(v[1]))),
-            covariance_to_ros(twist_covariance if twist_covariance is not None else zeros3)),
+            msgs.Twist(msgs.Vector3(v_lin, 0.0, 0.0), msgs.Vector3(0.0, 0.0, v_ang)),
+            twist_cov),
     )
 
 

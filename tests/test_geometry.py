@@ -110,3 +110,11 @@ def test_bad_pose_raises_with_expected_shape(bad):
 def test_bad_quaternion_shape_raises():
     with pytest.raises(ValueError, match=r"ROS order \(x, y, z, w\)"):
         g.quaternion_to_yaw([0, 0, 1])
+
+
+@given(poses, poses)
+def test_single_poses_take_the_same_arithmetic_as_a_batch(a, b):
+    # one pose goes through plain floats, a batch through numpy: the results are equal to the bit
+    np.testing.assert_array_equal(g.compose(a, b), g.compose([a], [b])[0])
+    np.testing.assert_array_equal(g.inverse(a), g.inverse([a])[0])
+    np.testing.assert_array_equal(g.wrap_angle(np.float64(a[2])), g.wrap_angle([a[2]])[0])

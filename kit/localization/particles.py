@@ -266,24 +266,19 @@ def cluster_labels(poses: ArrayLike, size: tuple[float, float, float] = BIN_SIZE
     from scipy.sparse.csgraph import connected_components
 
     keys = histogram_bins(poses, size)
-    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
-    codes = _bin_codes(unique)
-    order = np.argsort(codes)
-    sorted_codes = codes[order]
-    rows, cols = [], []
-    for dx in (-1, 0, 1):
-        for dy in (-1, 0, 1):
-            for dt in (-1, 0, 1):
-                if dx == dy == dt == 0:
-                    continue
-                neighbour = unique + np.array([dx, dy, dt])
-                neighbour[:, 2] %= _THETA_BINS
-                ncodes = _bin_codes(neighbour)
-                at = np.clip(np.searchsorted(sorted_codes, ncodes), 0, len(codes) - 1)
-                hit = sorted_codes[at] == ncodes
-                rows.append(np.flatnonzero(hit))
-                cols.append(order[at[hit]])
-    r, c = np.concatenate(rows), np.concatenate(cols)
+    # one int64 code per bin, in the keys' lexicographic order: the bins are the unique codes
+    sorted_codes, first, inverse = np.unique(_bin_codes(keys), return_index=True,
+                                             return_inverse=True)
+    unique = keys[first]
+    offsets = np.array([(dx, dy, dt) for dx in (-1, 0, 1) for dy in (-1, 0, 1)
+                        for dt in (-1, 0, 1) if (dx, dy, dt) != (0, 0, 0)])
+    neighbour = unique[:, None, :] + offsets[None, :, :]          # (bins, 26, 3)
+    neighbour[..., 2] %= _THETA_BINS
+    ncodes = _bin_codes(neighbour.reshape(-1, 3))
+    at = np.minimum(np.searchsorted(sorted_codes, ncodes), len(sorted_codes) - 1)
+    hit = sorted_codes[at] == ncodes
+    r = np.flatnonzero(hit) // len(offsets)
+    c = at[hit]
     graph = coo_matrix((np.ones(len(r)), (r, c)), shape=(len(unique), len(unique)))
     _, bin_label = connected_components(graph, directed=False)
     return bin_label[np.asarray(inverse).reshape(-1)].astype(np.int64)

@@ -19,6 +19,7 @@ from kit.localization.likelihood_field import (
     likelihood_field_weights,
 )
 from kit.localization.particles import (
+    cluster_labels,
     effective_sample_size,
     kld_sample_limit,
     low_variance_resample,
@@ -119,6 +120,38 @@ def test_kld_particle_count_approximates_the_chi_square_quantile(k):
     n = kld_sample_limit(k, 0.05, z, 1, 10**7)
     assert n == pytest.approx(exact, rel=0.01)
     assert kld_sample_limit(k, 0.05, z, 500, 2000) == min(max(n, 500), 2000)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_clusters_are_the_connected_groups_of_touching_bins(seed):
+    # a flood fill over the occupied (0.5 m, 0.5 m, 10 deg) bins, each bin touching its 26
+    # neighbours and θ wrapping round, written out by hand as AMCL's pf_kdtree_cluster does
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 400))
+    spread = float(rng.uniform(0.2, 3.0))
+    poses = np.column_stack([rng.normal(0, spread, n), rng.normal(0, spread, n),
+                             rng.uniform(-math.pi, math.pi, n)])
+    keys = [(math.floor(x / 0.5), math.floor(y / 0.5), math.floor(t / math.radians(10)) % 36)
+            for x, y, t in poses]
+    occupied = set(keys)
+    group: dict[tuple[int, int, int], int] = {}
+    for start in sorted(occupied):
+        if start in group:
+            continue
+        group[start], todo = len(group), [start]
+        while todo:
+            bx, by, bt = todo.pop()
+            for dx in (-1, 0, 1):
+                for dy in (-1, 0, 1):
+                    for dt in (-1, 0, 1):
+                        nb = (bx + dx, by + dy, (bt + dt) % 36)
+                        if nb in occupied and nb not in group:
+                            group[nb] = group[start]
+                            todo.append(nb)
+    labels = cluster_labels(poses)
+    # the same partition of the particles (labels may be numbered differently)
+    pairs = set(zip(labels.tolist(), (group[k] for k in keys), strict=True))
+    assert len(pairs) == len(set(labels.tolist())) == len({group[k] for k in keys})
 
 
 def test_nav2s_own_amcl_parameter_file_loads_as_it_is(tmp_path):
