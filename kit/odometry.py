@@ -230,17 +230,23 @@ def odometry_covariance_step(covariance: ArrayLike, pose: ArrayLike, d_right: fl
     p = geometry.check_pose(pose)
     L = float(wheel_separation)
     ds = 0.5 * (d_right + d_left)
-    a = p[2] + 0.5 * (d_right - d_left) / L
+    a = float(p[2]) + 0.5 * (d_right - d_left) / L
     c, s = math.cos(a), math.sin(a)
-    F_p = np.array([[1.0, 0.0, -ds * s],
-                    [0.0, 1.0, ds * c],
-                    [0.0, 0.0, 1.0]])
-    F_d = np.array([[0.5 * c - ds / (2 * L) * s, 0.5 * c + ds / (2 * L) * s],
-                    [0.5 * s + ds / (2 * L) * c, 0.5 * s - ds / (2 * L) * c],
-                    [1.0 / L, -1.0 / L]])
-    Q = np.diag([k_right * abs(d_right), k_left * abs(d_left)])
-    P_new = F_p @ P @ F_p.T + F_d @ Q @ F_d.T
-    return 0.5 * (P_new + P_new.T)  # keep it exactly symmetric
+    # F_p = [[1, 0, fx], [0, 1, fy], [0, 0, 1]] and F_Δ's rows (dr, dl), written out: the
+    # products of 3×3 matrices in floats (an odometry node runs this at 50 Hz)
+    fx, fy = -ds * s, ds * c
+    h = ds / (2 * L)
+    F_d = ((0.5 * c - h * s, 0.5 * c + h * s), (0.5 * s + h * c, 0.5 * s - h * c),
+           (1.0 / L, -1.0 / L))
+    q_r, q_l = k_right * abs(d_right), k_left * abs(d_left)
+    (p00, p01, p02), (p10, p11, p12), (p20, p21, p22) = P.tolist()
+    m = ((p00 + fx * p20, p01 + fx * p21, p02 + fx * p22),    # F_p P
+         (p10 + fy * p20, p11 + fy * p21, p12 + fy * p22),
+         (p20, p21, p22))
+    fpf = [(r0 + fx * r2, r1 + fy * r2, r2) for r0, r1, r2 in m]   # F_p P F_p^T
+    out = np.array([[fpf[i][j] + F_d[i][0] * F_d[j][0] * q_r + F_d[i][1] * F_d[j][1] * q_l
+                     for j in range(3)] for i in range(3)])
+    return 0.5 * (out + out.T)  # keep it exactly symmetric
 
 
 # flat indices of (x, y, yaw) × (x, y, yaw) and of the z, roll, pitch diagonal in a 6×6

@@ -40,6 +40,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry
@@ -262,9 +263,6 @@ def random_particle_share(w_slow: float, w_fast: float) -> float:
 def cluster_labels(poses: ArrayLike, size: tuple[float, float, float] = BIN_SIZE) -> IntArray:
     """Cluster label of every particle: particles whose histogram bins touch (any of the 26
     neighbours, θ wrapping round) share a label, as AMCL's ``pf_kdtree_cluster``."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     keys = histogram_bins(poses, size)
     # one int64 code per bin, in the keys' lexicographic order: the bins are the unique codes
     sorted_codes, first, inverse = np.unique(_bin_codes(keys), return_index=True,
@@ -279,9 +277,40 @@ def cluster_labels(poses: ArrayLike, size: tuple[float, float, float] = BIN_SIZE
     hit = sorted_codes[at] == ncodes
     r = np.flatnonzero(hit) // len(offsets)
     c = at[hit]
-    graph = coo_matrix((np.ones(len(r)), (r, c)), shape=(len(unique), len(unique)))
-    _, bin_label = connected_components(graph, directed=False)
-    return bin_label[np.asarray(inverse).reshape(-1)].astype(np.int64)
+    bin_label = _components(len(unique), r, c)
+    return bin_label[np.asarray(inverse).reshape(-1)]
+
+
+@njit(cache=True)
+def _components(n: int, a: IntArray, b: IntArray) -> IntArray:
+    """Connected components of ``n`` nodes joined by the edges ``a[k]–b[k]`` (union–find),
+    labelled 0, 1, … in the order of each component's lowest node, as
+    ``scipy.sparse.csgraph.connected_components`` numbers them."""
+    parent = np.arange(n)
+    for k in range(len(a)):
+        x, y = a[k], b[k]
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        while parent[y] != y:
+            parent[y] = parent[parent[y]]
+            y = parent[y]
+        if x != y:
+            if x < y:
+                parent[y] = x
+            else:
+                parent[x] = y
+    label = np.full(n, -1, dtype=np.int64)
+    count = 0
+    for i in range(n):
+        root = i
+        while parent[root] != root:
+            root = parent[root]
+        if label[root] < 0:
+            label[root] = count
+            count += 1
+        label[i] = label[root]
+    return label
 
 
 def _weighted_stats(poses: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:

@@ -101,8 +101,9 @@ def points_to_path(points: ArrayLike, frame_id: str = "map", stamp: msgs.Time | 
     yaw = np.append(yaw, last)
     half = 0.5 * yaw
     # plain floats from tolist(): the messages can be filled without their checks
-    pose, point, quat, stamped = (msgs.Pose.trusted, msgs.Point.trusted,
-                                  msgs.Quaternion.trusted, msgs.PoseStamped.trusted)
+    pose, point, quat, stamped = (msgs.Pose.trusted_builder(), msgs.Point.trusted_builder(),
+                                  msgs.Quaternion.trusted_builder(),
+                                  msgs.PoseStamped.trusted_builder())
     poses = tuple(stamped(header, pose(point(x, y, 0.0), quat(0.0, 0.0, qz, qw)))
                   for (x, y), qz, qw in zip(p.tolist(), np.sin(half).tolist(),
                                             np.cos(half).tolist(), strict=True))
