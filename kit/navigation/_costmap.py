@@ -385,16 +385,6 @@ def _footprint_costs_compiled(costs: Any, res: float, ox: float, oy: float, pose
     return centre, edge
 
 
-def _lookup(costmap: Costmap, x: FloatArray, y: FloatArray) -> NDArray[np.uint8]:
-    res = costmap.resolution
-    cols = np.floor((x - costmap.origin[0]) / res).astype(np.int64)
-    rows = np.floor((y - costmap.origin[1]) / res).astype(np.int64)
-    inside = (rows >= 0) & (rows < costmap.height) & (cols >= 0) & (cols < costmap.width)
-    out = np.full(np.shape(x), NO_INFORMATION, dtype=np.uint8)
-    out[inside] = costmap.costs[rows[inside], cols[inside]]
-    return out
-
-
 def footprint_collides(costmap: Costmap, poses: ArrayLike, outline: ArrayLike,
                        circumscribed_cost: int = 0) -> NDArray[np.bool_]:
     """True where the footprint at a pose touches a lethal (or unknown) cell, or its centre is
