@@ -401,10 +401,10 @@ def collides_from(costmap: Costmap, start: ArrayLike, poses: ArrayLike, outline:
     st = np.asarray(start, dtype=np.float64)
     o = np.asarray(outline, dtype=np.float64)
     centres0, edges0 = footprint_costs(costmap, st[None], o)
-    if edges0[0] < INSCRIBED_INFLATED_OBSTACLE:   # the usual case: standing clear of all
-        return footprint_collides(costmap, poses, outline, circumscribed_cost)
-    touched = _outline_cells(costmap, st[None], o)[0]
     centre0 = centres0[0]
+    # the cells themselves only when the outline stands on something (rare)
+    touched = _outline_cells(costmap, st[None], o)[0] if edges0[0] >= LETHAL_OBSTACLE \
+        else set()
     if not touched and centre0 < INSCRIBED_INFLATED_OBSTACLE:
         return footprint_collides(costmap, poses, outline, circumscribed_cost)
     p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
