@@ -24,7 +24,7 @@ from kit.robots import load
 from sim import scenarios
 
 TABLES = (("office", "uiabot", "truth", "tour"), ("aisle", "uiabot", "truth", "tour"),
-          ("office", "uiabot", "amcl", "tour"), ("aisle", "igv", "truth", "tour"))
+          ("office", "uiabot", "amcl", "tour"), ("aisle", "igv", "truth", "waypoints"))
 
 
 def real_time_factor(localization: str, repeat: int) -> tuple[float, float, float]:
@@ -59,7 +59,7 @@ def main() -> None:
         start = time.perf_counter()
         rows = scenarios.navigate(world, robot, args.tables, 0, loc, route=route, bar=False)
         scenarios.write_table(rows, out / f"{world}_{robot}_{loc}.csv")
-        f = scenarios.summary(rows, load(robot).max_linear_velocity)
+        f = scenarios.summary(rows, load(robot).cruise_velocity)
         print(f"{world:6s} {robot:6s} {loc:5s}: {f['reached']:.0%} of {f['goals']} goals "
               f"reached, {f['episodes_without_person_collision']:.0%} of {f['episodes']} "
               f"episodes without touching a person, {f['collisions_static']:.0f} contacts "

@@ -90,6 +90,9 @@ class RobotDescription:
     max_linear_velocity: float
     max_angular_velocity: float
     max_linear_acceleration: float
+    cruise_velocity: float
+    """m/s the navigation stack drives at (Nav2's ``desired_linear_vel``): the ``[navigation]``
+    section's ``cruise_velocity``, else ``max_linear_velocity``."""
     mass: float
     """kg, all links."""
     footprint: NDArray[np.float64]
@@ -281,6 +284,16 @@ def _drive_parameters(params: dict[str, Any], path: Path) -> dict[str, Any]:
     return dict(params["drive"])
 
 
+def _cruise_velocity(params: dict[str, Any], path: Path, top: float) -> float:
+    """``[navigation] cruise_velocity`` [m/s]: positive and at most the drive's top speed;
+    the top speed when not given."""
+    value = params.get("navigation", {}).get("cruise_velocity", top)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value <= top:
+        raise RobotDescriptionError(f"{path}: [navigation] cruise_velocity must be a number in "
+                                    f"(0, max_linear_velocity = {top}]; got {value!r}")
+    return float(value)
+
+
 def _footprint(params: dict[str, Any], path: Path) -> NDArray[np.float64]:
     """The ``[footprint]`` polygon (N, 2) in base_link [m]: given points, or a 16-gon of the
     given radius."""
@@ -336,6 +349,7 @@ def load(name_or_path: str | Path) -> RobotDescription:
         max_linear_velocity=float(drive["max_linear_velocity"]),
         max_angular_velocity=float(drive["max_angular_velocity"]),
         max_linear_acceleration=float(drive["max_linear_acceleration"]),
+        cruise_velocity=_cruise_velocity(params, path, float(drive["max_linear_velocity"])),
         mass=float(sum(link.mass for link in links)),
         footprint=_footprint(params, path),
         odometry_k=(float(odo.get("k_right", 0.0)), float(odo.get("k_left", 0.0))),

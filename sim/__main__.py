@@ -27,7 +27,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     nav.add_argument("--seed", type=int, default=0, help="episode i runs with seed S + i")
     nav.add_argument("--localization", choices=("truth", "amcl", "slam"), default="truth")
     nav.add_argument("--controller", choices=("rpp", "dwb"), default="rpp")
-    nav.add_argument("--route", choices=("tour", "glass"), default="tour")
+    nav.add_argument("--route", choices=("tour", "glass", "waypoints"), default=None,
+                     help="default: tour, but the IGV's in the aisle is waypoints (it cannot "
+                     "turn round in 1.5 m)")
+    nav.add_argument("--people", type=int, default=None,
+                     help="how many people walk (default: the route's)")
     nav.add_argument("--keepout", action=argparse.BooleanOptionalAction, default=None,
                      help="the glass as a keep-out mask (default: on, but for the glass route)")
     nav.add_argument("--out", required=True, help="CSV file to write")
@@ -51,15 +55,17 @@ def _navigate(args: argparse.Namespace) -> int:
         return 2
     try:
         rows = scenarios.navigate(args.world, args.robot, args.episodes, args.seed,
-                                  args.localization, args.controller, args.route, args.keepout)
+                                  args.localization, args.controller, args.route, args.keepout,
+                                  people=args.people)
     except ValueError as e:
         print(f"python -m sim navigate: {e}", file=sys.stderr)
         return 2
     out = scenarios.write_table(rows, args.out)
     from kit.robots import load
 
-    figures = scenarios.summary(rows, load(args.robot).max_linear_velocity)
-    print(f"{args.world}/{args.route}, {args.robot}, {args.localization}, {args.controller}: "
+    figures = scenarios.summary(rows, load(args.robot).cruise_velocity)
+    route = args.route or scenarios.default_route(args.world, args.robot)
+    print(f"{args.world}/{route}, {args.robot}, {args.localization}, {args.controller}: "
           f"{figures['reached']:.0%} of {figures['goals']} goals reached; "
           f"{figures['episodes_without_person_collision']:.0%} of {figures['episodes']} "
           f"episodes without touching a person; {figures['collisions_static']:.0f} contacts "

@@ -53,7 +53,7 @@ def office_episode(make_controller: Callable[[RobotDescription], Any], seed: int
             raise TypeError(f"make_controller must return a controller with a {method}() "
                             f"method; got {type(controller).__name__}")
     nav = Navigator(s.nav_grid, robot, controller=controller, keepout=s.keepout)
-    cruise = robot.max_linear_velocity
+    cruise = robot.cruise_velocity
     limits = [time_allowed(x, cruise) for x in s.shortest]
     node = scenarios.NavigationNode(nav, scenarios.TruthLocalization(), s.route.goals, limits,
                                     0, s.shortest)

@@ -80,7 +80,7 @@ def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None
     d = sim.description()
     loc = scenarios.AmclLocalization(grid, seed)
     nav = scenarios.Navigator(grid, d, keepout=setup.keepout)
-    limits = [30.0 + 4.0 * x / d.max_linear_velocity for x in setup.shortest]
+    limits = [30.0 + 4.0 * x / d.cruise_velocity for x in setup.shortest]
     node = scenarios.NavigationNode(nav, loc, route.goals, limits, 0, setup.shortest)
     bag = BagWriter(bag_path) if bag_path is not None else None
     recorder = demo.BagRecorder(TOPICS, bag)

@@ -21,7 +21,8 @@ known start, with wheel odometry), ``slam`` (the kit's SLAM building the map whi
 navigates on it, its ``map → odom`` with the odometry).
 
 ``python -m sim navigate --world office|aisle --robot uiabot|igv --episodes N --seed S
-[--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass] [--keepout]
+[--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass|waypoints]
+[--people N] [--keepout]
 --out FILE.csv``
 """
 
@@ -64,10 +65,10 @@ from sim.runner import Node, Published, Runner, WheelOdometryNode, odometry_pose
 from sim.simulation import Simulation
 from sim.world import World, load_world
 
-__all__ = ["COLUMNS", "LOCALIZATIONS", "ROUTES", "AmclLocalization", "GoalResult",
-           "NavigationNode", "Route", "SlamLocalization", "TruthLocalization", "episode",
-           "localization_source", "navigate", "on_canvas", "run_episode", "unknown_canvas",
-           "write_table"]
+__all__ = ["COLUMNS", "DEFAULT_ROUTES", "LOCALIZATIONS", "ROUTES", "AmclLocalization",
+           "GoalResult", "NavigationNode", "Route", "SlamLocalization", "TruthLocalization",
+           "default_route", "episode", "localization_source", "navigate", "on_canvas",
+           "run_episode", "unknown_canvas", "write_table"]
 
 FloatArray = NDArray[np.float64]
 HALF_PI = math.pi / 2
@@ -107,8 +108,23 @@ ROUTES: dict[tuple[str, str], Route] = {
         "aisle", (0.75, 0.75, 0.0), ((29.25, 30.5, HALF_PI), (1.0, 0.75, math.pi)), 4,
         "the 60 m aisle to its far end past the static boxes and back, among four people "
         "walking it both ways"),
+    ("aisle", "waypoints"): Route(
+        "aisle", (1.25, 0.75, 0.0), ((28.0, 0.75, 0.0), (29.25, 30.5, HALF_PI)), 4,
+        "the Uiabot paper's test: a waypoint at the end of the aisle's first section, the "
+        "next at the end of the second, among four people walking it both ways"),
 }
 """The scenarios by (world, route)."""
+
+DEFAULT_ROUTES: dict[tuple[str, str], str] = {("aisle", "igv"): "waypoints"}
+"""A world's route for a robot when none is named (else ``tour``). The IGV cannot do the
+aisle tour: its ``base_link`` is the front axle, 0.75 m ahead of its rear corners, so it
+cannot turn round in the 1.5 m aisle (turning in place sweeps a disc 1.72 m across); it
+drives the paper's one-way test instead."""
+
+
+def default_route(world: str, robot: str) -> str:
+    """The route a world's episodes take for a robot when none is named."""
+    return DEFAULT_ROUTES.get((world, robot), "tour")
 
 
 @dataclass
@@ -495,11 +511,12 @@ class EpisodeSetup:
     shortest: list[float] = field(default_factory=list)
 
 
-def setup(world: str = "office", robot: str = "uiabot", route: str = "tour",
+def setup(world: str = "office", robot: str = "uiabot", route: str | None = None,
           keepout: bool | None = None) -> EpisodeSetup:
     """The scenario's maps (the lidar's: no glass; the glass as a keep-out mask when asked —
     by default for every route but ``glass``, which shows what happens without) and the
-    shortest path of every goal."""
+    shortest path of every goal. No route: :func:`default_route`."""
+    route = default_route(world, robot) if route is None else route
     key = (world, route)
     if key not in ROUTES:
         raise ValueError(f"no route {route!r} in world {world!r}; the scenarios are "
@@ -560,7 +577,7 @@ def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
     grid = unknown_canvas(s.nav_grid) if isinstance(localization, SlamLocalization) \
         else s.nav_grid
     nav = Navigator(grid, d, controller=controller, keepout=s.keepout)
-    cruise = d.max_linear_velocity
+    cruise = d.cruise_velocity
     limits = [30.0 + 4.0 * (x if math.isfinite(x) else 30.0) / cruise for x in s.shortest]
     node = NavigationNode(nav, localization, route.goals, limits, index, s.shortest)
     runner = Runner(sim, [WheelOdometryNode(), node], record_rate=1.0)
@@ -576,17 +593,24 @@ def episode(s: EpisodeSetup, index: int, seed: int, localization: str = "truth",
 
 
 def navigate(world: str = "office", robot: str = "uiabot", episodes: int = 20, seed: int = 0,
-             localization: str = "truth", controller: str = "rpp", route: str = "tour",
-             keepout: bool | None = None, bar: bool = True) -> list[GoalResult]:
-    """Seeded episodes ``seed, seed + 1, …``; every goal's row."""
+             localization: str = "truth", controller: str = "rpp", route: str | None = None,
+             keepout: bool | None = None, bar: bool = True,
+             people: int | None = None) -> list[GoalResult]:
+    """Seeded episodes ``seed, seed + 1, …``; every goal's row. ``people``: how many walk
+    (default: the route's)."""
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1; got {episodes}")
+    if people is not None and (isinstance(people, bool) or not isinstance(people, int)
+                               or people < 0):
+        raise ValueError(f"people must be a whole number of at least 0; got {people!r}")
     if localization not in LOCALIZATIONS:
         raise ValueError(f"localization is one of {', '.join(LOCALIZATIONS)}; got "
                          f"{localization!r}")
     if controller not in ("rpp", "dwb"):
         raise ValueError(f"controller is 'rpp' or 'dwb'; got {controller!r}")
     s = setup(world, robot, route, keepout)
+    if people is not None:
+        s.route = dataclasses.replace(s.route, people=people)
     rows: list[GoalResult] = []
     indices = range(episodes)
     for i in progress(indices, desc=f"{world} episodes", total=episodes) if bar else indices:

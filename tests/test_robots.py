@@ -101,6 +101,19 @@ def test_bad_toml_and_bad_values_name_the_file(tmp_path):
         robots.load(path)
 
 
+def test_cruise_velocity_is_the_top_speed_unless_a_slower_one_is_given(tmp_path):
+    uiabot, igv = robots.load("uiabot"), robots.load("igv")
+    assert uiabot.cruise_velocity == uiabot.max_linear_velocity == 0.5
+    assert igv.max_linear_velocity == 1.8 and igv.cruise_velocity == 0.8
+    uiabot_urdf = (uiabot.source.parent / "uiabot.urdf").read_text()
+    for bad in ("0.0", "0.6", "true", '"fast"'):   # the Uiabot's top speed is 0.5 m/s
+        path = write_robot(tmp_path, uiabot_urdf, f"\n[navigation]\ncruise_velocity = {bad}\n")
+        with pytest.raises(RobotDescriptionError, match=r"bot\.toml: \[navigation\] cruise"):
+            robots.load(path)
+    path = write_robot(tmp_path, uiabot_urdf, "\n[navigation]\ncruise_velocity = 0.3\n")
+    assert robots.load(path).cruise_velocity == 0.3
+
+
 @pytest.mark.dataset
 def test_parses_the_real_turtlebot3_urdf(shared_data, tmp_path):
     """Our URDF reader on ROBOTIS' own file: the README's wheel geometry comes out."""

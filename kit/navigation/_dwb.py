@@ -98,7 +98,7 @@ class DwbParameters:
     def for_robot(cls, robot: RobotDescription, **overrides: object) -> DwbParameters:
         """Defaults with the robot's speed and acceleration limits (``hardware/robots``)."""
         a = robot.max_linear_acceleration
-        base = cls(max_vel_x=robot.max_linear_velocity,
+        base = cls(max_vel_x=robot.cruise_velocity,
                    max_vel_theta=min(1.0, robot.max_angular_velocity),
                    acc_lim_x=a, decel_lim_x=-a)
         return replace(base, **overrides)  # type: ignore[arg-type]

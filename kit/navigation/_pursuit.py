@@ -127,7 +127,7 @@ class RppParameters:
     @classmethod
     def for_robot(cls, robot: RobotDescription, **overrides: float | bool) -> RppParameters:
         """Defaults with the robot's speed and acceleration limits."""
-        base = cls(desired_linear_vel=robot.max_linear_velocity,
+        base = cls(desired_linear_vel=robot.cruise_velocity,
                    max_linear_accel=robot.max_linear_acceleration,
                    rotate_to_heading_angular_vel=min(1.8, robot.max_angular_velocity))
         return replace(base, **overrides)  # type: ignore[arg-type]

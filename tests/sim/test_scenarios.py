@@ -5,6 +5,7 @@ arguments refused before anything runs."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 
 import numpy as np
@@ -63,6 +64,23 @@ def test_navigation_while_mapping_reaches_the_goal_on_the_map_it_builds():
     assert np.count_nonzero(static == 254) > 500
 
 
+def test_the_igv_drives_the_papers_aisle_test_past_every_box_and_round_the_corner():
+    """The IGV's aisle route is the Uiabot paper's one-way test (it cannot turn round in
+    1.5 m); with nobody in the aisle it threads all four boxes (0.84 m of body in 1.2 m gaps)
+    and turns the corner round its inner edge without touching anything, near cruise speed."""
+    assert scenarios.default_route("aisle", "igv") == "waypoints"
+    assert scenarios.default_route("aisle", "uiabot") == "tour"
+    s = scenarios.setup("aisle", "igv")
+    assert s.route is scenarios.ROUTES["aisle", "waypoints"]
+    s.route = dataclasses.replace(s.route, people=0)
+    node = scenarios.run_episode(s, 0, 0, scenarios.TruthLocalization())
+    assert [r.reached for r in node.results] == [True, True], node.results
+    assert sum(r.collisions_static for r in node.results) == 0
+    cruise = 0.8                 # hardware/robots/igv.toml [navigation]
+    for r in node.results:
+        assert r.seconds < 1.5 * r.shortest_length / cruise, r
+
+
 def test_a_map_is_drawn_on_the_canvas_cell_for_cell():
     canvas_cells = np.zeros((40, 60), dtype=np.int8)
     info = msgs.MapMetaData(resolution=0.05, width=60, height=40,
@@ -84,6 +102,7 @@ def test_a_map_is_drawn_on_the_canvas_cell_for_cell():
 @pytest.mark.parametrize(("args", "message"), [
     (["--episodes", "0"], "--episodes must be at least 1"),
     (["--world", "aisle", "--route", "glass"], "no route 'glass' in world 'aisle'"),
+    (["--people", "-1"], "people must be a whole number of at least 0; got -1"),
 ])
 def test_bad_arguments_are_refused_with_the_reason(tmp_path, capsys, args, message):
     out = tmp_path / "t.csv"
