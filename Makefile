@@ -41,9 +41,10 @@ typecheck: $(STAMP)
 	$(BIN)/mypy
 
 # worksteal: a worker that runs out of tests takes some of the other's (the grading tests are
-# minutes long; without it one worker can sit idle at the end)
+# minutes long; without it one worker can sit idle at the end). The 15 slowest tests are
+# listed at the end, to keep the whole run within its budget.
 pytest: $(STAMP)
-	$(BIN)/pytest -n 2 --dist worksteal $(PYTEST_ARGS)
+	$(BIN)/pytest -n 2 --dist worksteal --durations=15 $(PYTEST_ARGS)
 
 # nbval keeps one kernel per notebook: --dist loadscope sends each notebook whole to one worker
 nbval: $(STAMP)

@@ -108,10 +108,11 @@ WALK_PERIOD = 0.1
 """[s] how often people decide where to go."""
 
 
-def _distance_to_polygon(x: float, y: float, polygon: FloatArray) -> float:
-    """Distance [m] from (x, y) to the closed polygon's outline (0 on it; inside counts as
-    the distance to the nearest edge, which never matters for a person outside a robot)."""
-    best = math.inf
+def _nearest_on_polygon(x: float, y: float, polygon: FloatArray) -> tuple[float, float, float]:
+    """The distance [m] from (x, y) to the closed polygon's outline and the outline's nearest
+    point (the distance is 0 on it; inside counts as the distance to the nearest edge, which
+    never matters for a person outside a robot)."""
+    best, bx, by = math.inf, x, y
     n = len(polygon)
     for i in range(n):
         x0, y0 = float(polygon[i, 0]), float(polygon[i, 1])
@@ -120,8 +121,10 @@ def _distance_to_polygon(x: float, y: float, polygon: FloatArray) -> float:
         length2 = ex * ex + ey * ey
         t = 0.0 if length2 <= 0.0 else min(1.0, max(0.0, ((x - x0) * ex + (y - y0) * ey)
                                                    / length2))
-        best = min(best, math.hypot(x - x0 - t * ex, y - y0 - t * ey))
-    return best
+        d = math.hypot(x - x0 - t * ex, y - y0 - t * ey)
+        if d < best:
+            best, bx, by = d, x0 + t * ex, y0 + t * ey
+    return best, bx, by
 
 
 def _keep_clear(px: float, py: float, vx: float, vy: float,
@@ -130,18 +133,22 @@ def _keep_clear(px: float, py: float, vx: float, vy: float,
     """Nobody walks into a robot: the speed at which a person and a robot close in stays one
     they can still stop from before touching it (feet brake at about 1.5 m/s² and people
     decide ten times a second: 1 m/s² and 0.2 m kept); a robot coming at them faster than
-    that makes them step back."""
+    that makes them step back. Closing in is measured toward the nearest point of the
+    robot's outline (a robot's centre can be far from its corners: the IGV's is its front
+    axle, with 0.75 m of body behind)."""
     for (rx, ry), (rvx, rvy), outline in zip(robots, velocities, outlines, strict=True):
-        ax, ay = px - rx, py - ry
-        gap = math.hypot(ax, ay)
+        if math.hypot(px - rx, py - ry) >= 4.0:
+            continue
+        gap, qx, qy = _nearest_on_polygon(px, py, outline)
         if 1e-6 < gap < 3.0:
-            clearance = _distance_to_polygon(px, py, outline) - PERSON_RADIUS
-            coming = max((rvx * ax + rvy * ay) / gap, 0.0)
+            ax, ay = (px - qx) / gap, (py - qy) / gap        # away from the robot, unit
+            clearance = gap - PERSON_RADIUS
+            coming = max(rvx * ax + rvy * ay, 0.0)
             allowed = math.sqrt(2.0 * 1.0 * max(clearance - 0.2, 0.0)) - coming
-            toward = -(vx * ax + vy * ay) / gap
+            toward = -(vx * ax + vy * ay)
             if toward > allowed:
                 cut = toward - allowed
-                vx, vy = vx + ax / gap * cut, vy + ay / gap * cut
+                vx, vy = vx + ax * cut, vy + ay * cut
     return vx, vy
 
 @dataclass

@@ -135,6 +135,17 @@ def test_a_pedestrian_steps_out_of_the_way_of_a_slow_robot():
     assert sim.ground_truth().pose[0] > 3.5          # the robot drove on past their spot
 
 
+def test_a_pedestrian_keeps_clear_of_the_igvs_rear_as_of_its_front():
+    """The IGV's base_link is its front axle, with 0.75 m of body behind. Someone walking at
+    its side, across its rear half, keeps clear of the body's edge: closing in is measured
+    toward the outline's nearest point, not toward base_link (measured that way, a person
+    heading for the rear slid along a circle round the axle into the body's side)."""
+    world = world_of(walls=[((-6, -4), (6, -4))], routes=[[(-0.5, -3.0), (-0.5, 3.0)]])
+    sim = Simulation(world=world, robot="igv", seed=2, people=1, start=[0.0, 0.0, 0.0])
+    sim.run(15.0, twist(0.0))
+    assert not [c for c in sim.collisions if c.other == "person"]
+
+
 def test_several_robots_share_a_world_with_their_own_topics():
     sim = Simulation(world="square", robot=["uiabot", "eddie"], seed=1)
     out = sim.run(0.5, {0: twist(0.2), 1: twist(0.0, 0.5)})

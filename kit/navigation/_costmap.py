@@ -394,10 +394,15 @@ def footprint_collides(costmap: Costmap, poses: ArrayLike, outline: ArrayLike,
 
 
 def collides_from(costmap: Costmap, start: ArrayLike, poses: ArrayLike, outline: ArrayLike,
-                  circumscribed_cost: int = 0) -> NDArray[np.bool_]:
+                  circumscribed_cost: int = 0, margin: float = 0.025) -> NDArray[np.bool_]:
     """:func:`footprint_collides` for motions from ``start``: the lethal cells the footprint
-    already touches at ``start`` do not count, so that a robot a person has walked into may
-    still move away (everywhere else the check is the same)."""
+    already touches at ``start``, and the cells beside them (the same surface), count only
+    where the footprint shrunk by ``margin`` [m] (half the kit's padding) covers more of them
+    than at the start (the area of the cells under it). So a robot a person has walked into,
+    or that stopped with its padding on a wall, may still move away or along it, and within
+    the outer half of its padding freely, but not creep further in — a long robot's rear
+    swinging into the wall it stands beside. Any other cell met is a collision, as
+    everywhere else. The footprint is taken as convex."""
     st = np.asarray(start, dtype=np.float64)
     o = np.asarray(outline, dtype=np.float64)
     centres0, edges0 = footprint_costs(costmap, st[None], o)
@@ -410,10 +415,117 @@ def collides_from(costmap: Costmap, start: ArrayLike, poses: ArrayLike, outline:
     p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     centre, _ = footprint_costs(costmap, p, o, circumscribed_cost)
     hit = (centre >= INSCRIBED_INFLATED_OBSTACLE) & (centre0 < INSCRIBED_INFLATED_OBSTACLE)
+    inner = _shrink(_corners(o), margin)
     for i, cells in enumerate(_outline_cells(costmap, p, o)):
-        if cells - touched:
-            hit[i] = True
+        new = cells - touched
+        if any(c == (-1, -1) or not _beside(c, touched) for c in new):
+            hit[i] = True                       # something else met: a collision as ever
+            continue
+        if hit[i]:
+            continue
+        squares = np.array([c for c in touched | cells if c != (-1, -1)], dtype=np.int64)
+        if len(squares) == 0:
+            continue
+        before = _overlap(costmap, st, inner, squares)
+        hit[i] = _overlap(costmap, p[i], inner, squares) > before + 1e-7
     return hit.reshape(np.shape(poses)[:-1])
+
+
+def _shrink(polygon: FloatArray, margin: float) -> FloatArray:
+    """A convex polygon with every edge moved ``margin`` [m] inwards (its vertices where the
+    moved edges meet); the polygon itself when it is too small for that."""
+    if margin <= 0.0:
+        return polygon
+    area2 = float(np.sum(polygon[:, 0] * np.roll(polygon[:, 1], -1) -
+                         np.roll(polygon[:, 0], -1) * polygon[:, 1]))
+    sign = 1.0 if area2 > 0 else -1.0                  # counter-clockwise: inside on the left
+    a, b = polygon, np.roll(polygon, -1, axis=0)
+    d = b - a
+    length = np.hypot(d[:, 0], d[:, 1])
+    normal = sign * np.column_stack([-d[:, 1], d[:, 0]]) / length[:, None]
+    a2 = a + margin * normal                           # edge i moved in: a2 + t d
+    prev_a, prev_d = np.roll(a2, 1, axis=0), np.roll(d, 1, axis=0)
+    cross = prev_d[:, 0] * d[:, 1] - prev_d[:, 1] * d[:, 0]
+    t = ((a2[:, 0] - prev_a[:, 0]) * d[:, 1] - (a2[:, 1] - prev_a[:, 1]) * d[:, 0]) / \
+        np.where(np.abs(cross) > 1e-12, cross, 1.0)
+    out = prev_a + t[:, None] * prev_d
+    if not np.all(np.isfinite(out)) or np.any(np.sum((np.roll(out, -1, axis=0) - out) * d,
+                                                     axis=1) <= 0.0):
+        return polygon                                 # an edge turned over: too small
+    return np.ascontiguousarray(out)
+
+
+def _beside(cell: tuple[int, int], cells: set[tuple[int, int]]) -> bool:
+    """Whether ``cell`` is one of ``cells`` or next to one (8-neighbours): the same surface."""
+    r, c = cell
+    return any(abs(r - a) <= 1 and abs(c - b) <= 1 for a, b in cells if a >= 0)
+
+
+def _corners(outline: FloatArray) -> FloatArray:
+    """The outline's polygon without the points along straight edges (its corners)."""
+    prev, nxt = np.roll(outline, 1, axis=0), np.roll(outline, -1, axis=0)
+    turn = (outline[:, 0] - prev[:, 0]) * (nxt[:, 1] - outline[:, 1]) - \
+        (outline[:, 1] - prev[:, 1]) * (nxt[:, 0] - outline[:, 0])
+    keep = np.abs(turn) > 1e-12
+    return np.ascontiguousarray(outline[keep] if keep.sum() >= 3 else outline)
+
+
+def _overlap(costmap: Costmap, pose: FloatArray, corners: FloatArray,
+             squares: NDArray[np.int64]) -> float:
+    """The area [m²] the footprint polygon at ``pose`` covers of the cells ``squares``
+    ((K, 2) rows and columns): how far it has pushed into them, continuous as it moves (a
+    count of cells or a depth measured from cell centres jumps by whole cells)."""
+    return float(_overlap_compiled(float(costmap.resolution), float(costmap.origin[0]),
+                                   float(costmap.origin[1]), float(pose[0]), float(pose[1]),
+                                   float(pose[2]), corners, squares))
+
+
+@njit(cache=True)
+def _overlap_compiled(res: float, ox: float, oy: float, x: float, y: float, th: float,
+                      corners: Any, squares: Any) -> float:
+    n = corners.shape[0]
+    c, s = math.cos(th), math.sin(th)
+    poly = np.empty((n, 2))
+    for j in range(n):
+        poly[j, 0] = x + c * corners[j, 0] - s * corners[j, 1]
+        poly[j, 1] = y + s * corners[j, 0] + c * corners[j, 1]
+    total = 0.0
+    for k in range(squares.shape[0]):
+        x0, y0 = ox + squares[k, 1] * res, oy + squares[k, 0] * res
+        bounds = (x0, y0, x0 + res, y0 + res)
+        cur = poly
+        for side in range(4):              # Sutherland-Hodgman against each edge of the cell
+            m = cur.shape[0]
+            if m == 0:
+                break
+            out = np.empty((2 * m, 2))
+            count = 0
+            axis = side % 2
+            limit = bounds[side]
+            keep_above = side < 2             # x >= x0, y >= y0, then x <= x1, y <= y1
+            for j in range(m):
+                ax, ay = cur[j - 1, 0], cur[j - 1, 1]
+                bx, by = cur[j, 0], cur[j, 1]
+                av = ax if axis == 0 else ay
+                bv = bx if axis == 0 else by
+                a_in = av >= limit if keep_above else av <= limit
+                b_in = bv >= limit if keep_above else bv <= limit
+                if a_in != b_in:
+                    t = (limit - av) / (bv - av)
+                    out[count, 0] = ax + t * (bx - ax)
+                    out[count, 1] = ay + t * (by - ay)
+                    count += 1
+                if b_in:
+                    out[count, 0] = bx
+                    out[count, 1] = by
+                    count += 1
+            cur = out[:count]
+        area = 0.0
+        m = cur.shape[0]
+        for j in range(m):
+            area += cur[j - 1, 0] * cur[j, 1] - cur[j, 0] * cur[j - 1, 1]
+        total += abs(area) / 2.0
+    return total
 
 
 def _outline_cells(costmap: Costmap, poses: FloatArray, outline: FloatArray

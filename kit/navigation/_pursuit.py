@@ -248,8 +248,10 @@ class RegulatedPurePursuit:
         if abs(w) > 1e-6:
             step = min(step, 0.05 / abs(w))   # a turn sweeps the corners faster than the centre
         times = np.arange(step, horizon + 1e-9, step)
-        if len(times) == 0:
-            return
+        if len(times) == 0 or times[-1] < horizon - 1e-9:
+            # creeping (a step longer than the horizon) is checked at the horizon too, or a
+            # robot starting from standstill beside a wall is never checked at all
+            times = np.append(times, horizon)
         poses = arc_poses(pose, v, w, times)
         hit = collides_from(costmap, pose, poses, self._outline)
         if np.any(hit):

@@ -27,13 +27,14 @@ from kit.navigation import (
     arc_poses,
     check_path,
     closest_index,
+    collides_from,
     dynamic_window,
     footprint_collides,
     lookahead_point,
     outline_points,
     pure_pursuit_curvature,
 )
-from kit.planning import LETHAL_OBSTACLE, Costmap, ObstacleLayer
+from kit.planning import LETHAL_OBSTACLE, Costmap, ObstacleLayer, pad_footprint
 from kit.robots import load
 
 SQUARE = np.array([[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]])
@@ -176,6 +177,50 @@ def test_dwb_refuses_every_command_when_walled_in():
     with pytest.raises(ControlError, match="no valid trajectory"):
         ctrl.compute_velocity_commands((1.0, 1.0, 0.0), (0.0, 0.0),
                                        Costmap(costs, 0.05))
+
+
+def test_a_robot_touching_a_wall_may_leave_it_but_not_creep_further_in():
+    """The IGV's footprint (base_link at the front axle, 0.75 m of body behind) stopped with
+    its padded rear-left corner on a wall at y = 1.5, heading a little to the right: moves
+    that take the corner off the wall are allowed; a slow arc turning right (RPP's first
+    step from standstill), which swings the rear further into the wall, is refused, and so
+    are backing up and turning right on the spot."""
+    igv = pad_footprint(load("igv").footprint, 0.05)
+    outline = outline_points(igv, 0.05)
+    costs = np.zeros((40, 240), np.uint8)
+    costs[30:, :] = LETHAL_OBSTACLE                       # the wall: y >= 1.5
+    costmap = Costmap(costs, 0.05)
+    start = np.array([8.7, 0.97, -0.12])                  # as the aisle trace found it
+    assert footprint_collides(costmap, start[None], outline)[0]     # it does touch
+    times = np.linspace(0.05, 1.0, 20)
+    creep = arc_poses(start, 0.04, -0.03, times)          # RPP's first step from standstill
+    assert collides_from(costmap, start, creep, outline).any()
+    for v, w in ((0.2, 0.0), (0.2, 0.3), (0.0, 0.3)):    # ahead; ahead or on the spot to
+        leave = arc_poses(start, v, w, times[:4])          # the left, swinging the rear off
+        assert not collides_from(costmap, start, leave, outline).any(), (v, w)
+    for v, w in ((-0.2, 0.0), (0.0, -0.3)):               # back; on the spot to the right
+        assert collides_from(costmap, start, arc_poses(start, v, w, times[:4]), outline).all()
+    # the outer half of the padding (2.5 cm) is soft: with the padded side 1 cm into the wall,
+    # 1 cm further is allowed, 3 cm further (the inner half reached) is not
+    side = np.array([8.7, 1.04, 0.0])                     # left edge padded to y = 1.51
+    assert footprint_collides(costmap, side[None], outline)[0]
+    deeper = side + np.array([[0.0, 0.01, 0.0], [0.0, 0.03, 0.0]])
+    assert list(collides_from(costmap, side, deeper, outline)) == [False, True]
+
+
+def test_rpp_checks_the_first_creeping_step_from_standstill():
+    """From standstill RPP's first command is one acceleration step (0.04 m/s for the IGV),
+    whose projection step (a cell's length at that speed, 1.25 s) is longer than the
+    horizon: the arc is still checked at the horizon, so the rear swinging into the wall
+    beside it is refused instead of creeping in."""
+    igv = load("igv")
+    footprint = pad_footprint(igv.footprint, 0.05)
+    costs = np.zeros((40, 240), np.uint8)
+    costs[30:, :] = LETHAL_OBSTACLE                       # the wall: y >= 1.5
+    ctrl = RegulatedPurePursuit(RppParameters.for_robot(igv), footprint)
+    ctrl.set_plan([(8.7, 0.97), (9.3, 0.75), (10.5, 0.6)])   # veering right, off the wall
+    with pytest.raises(ControlError, match="collision ahead"):
+        ctrl.compute_velocity_commands((8.7, 0.97, -0.12), (0.0, 0.0), Costmap(costs, 0.05))
 
 
 def test_dwb_parameters_are_checked():
