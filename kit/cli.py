@@ -33,11 +33,11 @@ def _robots(args: argparse.Namespace) -> int:
 def _robot(args: argparse.Namespace) -> int:
     r = robots.load(args.name)
     print(f"{r.name}: {r.description}")
-    print(f"  {'source':20s}{r.source}")
+    print(f"  {'source':22s}{r.source}")
     for key in ("wheel_radius", "wheel_separation", "gear_ratio",
                 "encoder_resolution", "counter_bits", "metres_per_tick", "max_wheel_speed",
-                "max_linear_velocity", "max_angular_velocity", "mass"):
-        print(f"  {key:20s}{getattr(r, key):g}")
+                "max_linear_velocity", "cruise_velocity", "max_angular_velocity", "mass"):
+        print(f"  {key:22s}{getattr(r, key):g}")
     print("  static transforms (parent -> child: x y z [m], yaw [deg])")
     for j in r.joints:
         print(f"    {j.parent} -> {j.child}: {j.xyz[0]:+.4f} {j.xyz[1]:+.4f} {j.xyz[2]:+.4f}, "

@@ -22,6 +22,10 @@ def test_kit_wheels_prints_the_igv_paper_numbers(capsys):
 def test_kit_robot_and_unknown_robot(capsys):
     assert kit_cli.main(["robot", "eddie"]) == 0
     assert "base_link -> laser_link" in capsys.readouterr().out
+    assert kit_cli.main(["robot", "igv"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "  max_angular_velocity  2" in lines          # every name and value apart
+    assert "  cruise_velocity       0.8" in lines and "  max_linear_velocity   1.8" in lines
     assert kit_cli.main(["robot", "r2d2"]) == 2
     assert "neither a shipped robot" in capsys.readouterr().err
 
