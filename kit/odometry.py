@@ -292,7 +292,7 @@ def odometry_message(pose: ArrayLike, velocity: ArrayLike, stamp: msgs.Time,
         child_frame_id=child_frame_id,
         pose=msgs.PoseWithCovariance(
             msgs.Pose(msgs.Point(x, y, 0.0),
-                      msgs.Quaternion(0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))),
+                      msgs.Quaternion(*geometry.yaw_to_quaternion(yaw).tolist())),
             pose_cov),
         twist=msgs.TwistWithCovariance(
             msgs.Twist(msgs.Vector3(v_lin, 0.0, 0.0), msgs.Vector3(0.0, 0.0, v_ang)),

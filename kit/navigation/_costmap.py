@@ -31,6 +31,7 @@ from kit.planning import (
     footprint_radii,
     inflate,
     inflation_cost,
+    pad_footprint,
     static_layer,
 )
 from kit.planning._obstacle import cells_in_polygon
@@ -397,12 +398,13 @@ def collides_from(costmap: Costmap, start: ArrayLike, poses: ArrayLike, outline:
                   circumscribed_cost: int = 0, margin: float = 0.025) -> NDArray[np.bool_]:
     """:func:`footprint_collides` for motions from ``start``: the lethal cells the footprint
     already touches at ``start``, and the cells beside them (the same surface), count only
-    where the footprint shrunk by ``margin`` [m] (half the kit's padding) covers more of them
-    than at the start (the area of the cells under it). So a robot a person has walked into,
+    where the footprint with ``margin`` [m] of its padding taken back (half the kit's
+    padding; :func:`kit.planning.pad_footprint` with ``-margin``) covers more of them than at
+    the start (the area of the cells under it). So a robot a person has walked into,
     or that stopped with its padding on a wall, may still move away or along it, and within
     the outer half of its padding freely, but not creep further in — a long robot's rear
     swinging into the wall it stands beside. Any other cell met is a collision, as
-    everywhere else. The footprint is taken as convex."""
+    everywhere else."""
     st = np.asarray(start, dtype=np.float64)
     o = np.asarray(outline, dtype=np.float64)
     centres0, edges0 = footprint_costs(costmap, st[None], o)
@@ -415,7 +417,10 @@ def collides_from(costmap: Costmap, start: ArrayLike, poses: ArrayLike, outline:
     p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     centre, _ = footprint_costs(costmap, p, o, circumscribed_cost)
     hit = (centre >= INSCRIBED_INFLATED_OBSTACLE) & (centre0 < INSCRIBED_INFLATED_OBSTACLE)
-    inner = _shrink(_corners(o), margin)
+    corners = _corners(o)
+    inner = pad_footprint(corners, -margin)       # half the padding taken back, as it was put
+    if np.any(np.sign(inner) != np.sign(corners)):
+        inner = corners                           # a footprint too small to take it back from
     for i, cells in enumerate(_outline_cells(costmap, p, o)):
         new = cells - touched
         if any(c == (-1, -1) or not _beside(c, touched) for c in new):
@@ -429,30 +434,6 @@ def collides_from(costmap: Costmap, start: ArrayLike, poses: ArrayLike, outline:
         before = _overlap(costmap, st, inner, squares)
         hit[i] = _overlap(costmap, p[i], inner, squares) > before + 1e-7
     return hit.reshape(np.shape(poses)[:-1])
-
-
-def _shrink(polygon: FloatArray, margin: float) -> FloatArray:
-    """A convex polygon with every edge moved ``margin`` [m] inwards (its vertices where the
-    moved edges meet); the polygon itself when it is too small for that."""
-    if margin <= 0.0:
-        return polygon
-    area2 = float(np.sum(polygon[:, 0] * np.roll(polygon[:, 1], -1) -
-                         np.roll(polygon[:, 0], -1) * polygon[:, 1]))
-    sign = 1.0 if area2 > 0 else -1.0                  # counter-clockwise: inside on the left
-    a, b = polygon, np.roll(polygon, -1, axis=0)
-    d = b - a
-    length = np.hypot(d[:, 0], d[:, 1])
-    normal = sign * np.column_stack([-d[:, 1], d[:, 0]]) / length[:, None]
-    a2 = a + margin * normal                           # edge i moved in: a2 + t d
-    prev_a, prev_d = np.roll(a2, 1, axis=0), np.roll(d, 1, axis=0)
-    cross = prev_d[:, 0] * d[:, 1] - prev_d[:, 1] * d[:, 0]
-    t = ((a2[:, 0] - prev_a[:, 0]) * d[:, 1] - (a2[:, 1] - prev_a[:, 1]) * d[:, 0]) / \
-        np.where(np.abs(cross) > 1e-12, cross, 1.0)
-    out = prev_a + t[:, None] * prev_d
-    if not np.all(np.isfinite(out)) or np.any(np.sum((np.roll(out, -1, axis=0) - out) * d,
-                                                     axis=1) <= 0.0):
-        return polygon                                 # an edge turned over: too small
-    return np.ascontiguousarray(out)
 
 
 def _beside(cell: tuple[int, int], cells: set[tuple[int, int]]) -> bool:

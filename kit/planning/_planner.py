@@ -99,14 +99,13 @@ def points_to_path(points: ArrayLike, frame_id: str = "map", stamp: msgs.Time | 
     yaw = np.arctan2(d[:, 1], d[:, 0]) if len(d) else np.zeros(0)
     last = final_yaw if final_yaw is not None else (float(yaw[-1]) if len(yaw) else 0.0)
     yaw = np.append(yaw, last)
-    half = 0.5 * yaw
     # plain floats from tolist(): the messages can be filled without their checks
     pose, point, quat, stamped = (msgs.Pose.trusted_builder(), msgs.Point.trusted_builder(),
                                   msgs.Quaternion.trusted_builder(),
                                   msgs.PoseStamped.trusted_builder())
-    poses = tuple(stamped(header, pose(point(x, y, 0.0), quat(0.0, 0.0, qz, qw)))
-                  for (x, y), qz, qw in zip(p.tolist(), np.sin(half).tolist(),
-                                            np.cos(half).tolist(), strict=True))
+    poses = tuple(stamped(header, pose(point(x, y, 0.0), quat(*q)))
+                  for (x, y), q in zip(p.tolist(), geometry.yaw_to_quaternion(yaw).tolist(),
+                                       strict=True))
     return msgs.Path(header, poses)
 
 
