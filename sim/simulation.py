@@ -16,7 +16,9 @@ Pedestrians are discs of 0.25 m and 70 kg that walk their routes at seeded speed
 same kind of foot traction, stepping aside for robots that come close (and round one ahead of
 them, on the side away from it, never closing in on one faster than they could still stop
 from, stepping back from one that comes at them; passing each other on the right, without
-bumping); they push and can be pushed, and the lidar sees them.
+bumping); they push and can be pushed, and the lidar sees them. Held up by a robot they
+cannot pass, they step into the nearest of the world's alcoves (a door off an aisle) on their
+side of it and wait there until it has gone by; where there is none, they turn back.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from kit.control import DCMotor
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
 from sim.sensors import Imu, Lidar, encoder_counts
-from sim.world import World, load_world
+from sim.world import World, free_distance, load_world
 
 __all__ = ["Collision", "GroundTruth", "Physics", "Simulation"]
 
@@ -193,17 +195,33 @@ class _Person:
     speed: float
     blocked: float = 0.0
     """Seconds this person has been held up by a robot in their way."""
+    alcove: int = -1
+    """The alcove this person is stepping into, waiting in or leaving (-1: none)."""
+    stage: int = 0
+    """1: to its front, 2: into it, 3: waiting, 4: back out to its front."""
 
 
 
-def _give_way(p: _Person, held_up: bool) -> None:
+def _at_most_walking_speed(vx: float, vy: float) -> tuple[float, float]:
+    speed = math.hypot(vx, vy)
+    return (vx * 1.5 / speed, vy * 1.5 / speed) if speed > 1.5 else (vx, vy)
+
+
+ALCOVE_REACH = 10.0
+"""[m] how far a person held up by a robot walks to an alcove to let it by."""
+
+
+def _give_way(p: _Person, held_up: bool, alcove: int = -1) -> None:
     """Held up by a robot (going on at under a fifth of their pace with one within 1.5 m) for
-    4 s, a person gives way: they turn back along their route."""
+    1 s, a person with an alcove on their side of it (``alcove``) steps into it; with none,
+    after 4 s, they give way by turning back along their route."""
     if not held_up:
         p.blocked = 0.0
         return
     p.blocked += WALK_PERIOD
-    if p.blocked >= 4.0 and len(p.route) > 1:
+    if p.blocked >= 1.0 and alcove >= 0:
+        p.alcove, p.stage, p.blocked = alcove, 1, 0.0
+    elif p.blocked >= 4.0 and len(p.route) > 1:
         p.direction = -p.direction
         p.target = min(max(p.target + p.direction, 0), len(p.route) - 1)
         p.blocked = 0.0
@@ -385,6 +403,9 @@ class Simulation:
         velocities = [r.world_velocity for r in self.robots]
         for p in self.people:
             px, py = p.body.position
+            if p.alcove >= 0:
+                self._walk_aside(p, px, py, robots, velocities, outlines)
+                continue
             gx, gy = p.route[p.target]
             dist = math.hypot(gx - px, gy - py)
             if dist < 0.3:
@@ -400,15 +421,101 @@ class Simulation:
             vx, vy = ((gx - px) / dist * p.speed, (gy - py) / dist * p.speed) if dist > 1e-9 \
                 else (0.0, 0.0)
             ux, uy = (vx / p.speed, vy / p.speed) if dist > 1e-9 else (0.0, 0.0)
+            if len(self.world.alcoves) and self._no_way_past(px, py, ux, uy):
+                alcove = self._alcove_for(px, py, robots)
+                if alcove >= 0:                       # step aside now, before meeting it
+                    p.alcove, p.stage, p.blocked = alcove, 1, 0.0
+                    self._walk_aside(p, px, py, robots, velocities, outlines)
+                    continue
+            vx, vy = self._step_round_walls(px, py, vx, vy, ux, uy, p.speed, dist)
             vx, vy = self._step_round_robots(px, py, vx, vy, ux, uy, p.speed, robots)
             vx, vy = self._pass_people(p, px, py, vx, vy, ux, uy)
             vx, vy = _keep_clear(px, py, vx, vy, robots, velocities, outlines)
             near = any(math.hypot(px - rx, py - ry) < 1.5 for rx, ry in robots)
-            _give_way(p, near and dist > 1e-9 and vx * ux + vy * uy < 0.2 * p.speed)
-            speed = math.hypot(vx, vy)
-            if speed > 1.5:
-                vx, vy = vx * 1.5 / speed, vy * 1.5 / speed
-            p.ground.velocity = (vx, vy)
+            bvx, bvy = p.body.velocity                # commanded or really: a push is no way
+            held = near and dist > 1e-9 and min(vx * ux + vy * uy, bvx * ux + bvy * uy) < \
+                0.2 * p.speed
+            _give_way(p, held, self._alcove_for(px, py, robots) if held else -1)
+            p.ground.velocity = _at_most_walking_speed(vx, vy)
+
+    def _walk_aside(self, p: _Person, px: float, py: float,
+                    robots: list[tuple[float, float]], velocities: list[tuple[float, float]],
+                    outlines: list[FloatArray]) -> None:
+        vx, vy = self._step_aside(p, px, py, robots, velocities, outlines)
+        vx, vy = self._pass_people(p, px, py, vx, vy, 0.0, 0.0)
+        vx, vy = _keep_clear(px, py, vx, vy, robots, velocities, outlines)
+        p.ground.velocity = _at_most_walking_speed(vx, vy)
+
+    def _no_way_past(self, px: float, py: float, ux: float, uy: float) -> bool:
+        """Whether a robot within 3.5 m ahead of a person walking along (ux, uy), and not
+        going away from them, leaves too little room in the passage to pass it: the room
+        across the person, less the robot's width, under a body and 0.3 m."""
+        for r in self.robots:
+            rx, ry = float(r.pose[0]), float(r.pose[1])
+            d = math.hypot(rx - px, ry - py)
+            if d >= 3.5 or (rx - px) * ux + (ry - py) * uy <= 0.5 * d:
+                continue
+            rvx, rvy = r.world_velocity
+            if (rvx * (px - rx) + rvy * (py - ry)) / d < -0.1:
+                continue                              # going away: follow it
+            across = self._room(px, py, -uy, ux, 3.0) + self._room(px, py, uy, -ux, 3.0)
+            width = float(np.ptp(r.description.footprint[:, 1]))
+            if across - width < 2 * PERSON_RADIUS + 0.3:
+                return True
+        return False
+
+    def _alcove_for(self, px: float, py: float, robots: list[tuple[float, float]]) -> int:
+        """The nearest free alcove (nobody else stepping into it or waiting there) within
+        :data:`ALCOVE_REACH` that a person at (px, py) can walk straight to without going
+        toward the nearest robot (-1: none)."""
+        alcoves = self.world.alcoves
+        if len(alcoves) == 0 or not robots:
+            return -1
+        rx, ry = min(robots, key=lambda r: math.hypot(px - r[0], py - r[1]))
+        gap = math.hypot(px - rx, py - ry)
+        ax, ay = ((px - rx) / gap, (py - ry) / gap) if gap > 1e-9 else (0.0, 0.0)
+        taken = {q.alcove for q in self.people}
+        best, chosen = ALCOVE_REACH, -1
+        for i, (fx, fy, bx, by) in enumerate(alcoves):
+            if i in taken:
+                continue
+            if math.hypot(bx - px, by - py) <= math.hypot(bx - fx, by - fy):
+                fx, fy = bx, by                  # already in its doorway: straight in
+            d = math.hypot(fx - px, fy - py)
+            if d < best and (fx - px) * ax + (fy - py) * ay > -0.3 and \
+                    not self.world.crosses_wall((px, py), (float(fx), float(fy))):
+                best, chosen = d, i
+        return chosen
+
+    def _step_aside(self, p: _Person, px: float, py: float,
+                    robots: list[tuple[float, float]], velocities: list[tuple[float, float]],
+                    outlines: list[FloatArray]) -> tuple[float, float]:
+        """A person letting a robot by: to the alcove's front, into it, waiting there while a
+        robot is within 2 m, coming toward it from within 8 m or standing within 6 m (held up
+        by someone else, it has yet to go by), back out to its front, then on along their
+        route as before."""
+        fx, fy, bx, by = (float(v) for v in self.world.alcoves[p.alcove])
+        if p.stage == 1 and math.hypot(bx - px, by - py) <= math.hypot(bx - fx, by - fy):
+            p.stage = 2                                  # already in its doorway
+        if p.stage == 3:
+            for (rx, ry), (rvx, rvy), outline in zip(robots, velocities, outlines,
+                                                    strict=True):
+                d = math.hypot(fx - rx, fy - ry)
+                closing = ((fx - rx) * rvx + (fy - ry) * rvy) / d if d > 1e-9 else 0.0
+                if _nearest_on_polygon(px, py, outline)[0] < 2.0 or \
+                        (d < 8.0 and closing > 0.05) or (d < 6.0 and closing > -0.05):
+                    return 0.0, 0.0
+            p.stage = 4
+        gx, gy = (bx, by) if p.stage == 2 else (fx, fy)
+        dist = math.hypot(gx - px, gy - py)
+        if dist < (0.1 if p.stage == 2 else 0.2):
+            if p.stage == 4:
+                p.alcove, p.stage = -1, 0
+            else:
+                p.stage += 1
+            return 0.0, 0.0
+        pace = min(p.speed, 2.0 * dist)                # slowing down onto the spot
+        return (gx - px) / dist * pace, (gy - py) / dist * pace
 
     def _step_round_robots(self, px: float, py: float, vx: float, vy: float, ux: float,
                            uy: float, pace: float, robots: list[tuple[float, float]]
@@ -433,6 +540,30 @@ class Simulation:
                     side = pace * (1.5 - gap) / 1.5 * away
                     vx, vy = vx + uy * side, vy - ux * side
         return vx, vy
+
+    def _step_round_walls(self, px: float, py: float, vx: float, vy: float, ux: float,
+                          uy: float, pace: float, dist: float) -> tuple[float, float]:
+        """Nor into walls and boxes: a wall or box within 0.8 m ahead of either side of a
+        person's body (and before their next route point) makes them step sideways, away from
+        the side it is on — to the side with more room when it is across their whole way —
+        the nearer, the harder. Without it a person pushed off their line (passing someone,
+        stepping round a robot) walks into the corner of a box and stays there."""
+        reach = min(0.8, dist)
+        if reach <= 0.0:
+            return vx, vy
+        edge = PERSON_RADIUS - 0.05                 # rays just inside the body's sides
+        left, right, centre = (float(v) for v in free_distance(
+            self.world.segments, np.array([px - uy * edge, px + uy * edge, px]),
+            np.array([py + ux * edge, py - ux * edge, py]), ux, uy, reach))
+        ahead = min(left, right, centre)
+        if ahead >= reach:
+            return vx, vy
+        if (left < reach) == (right < reach):     # across the way: toward the more room
+            away = 1.0 if self._room(px, py, uy, -ux) > self._room(px, py, -uy, ux) else -1.0
+        else:                                     # +1: to the right
+            away = 1.0 if left < right else -1.0
+        side = pace * (1.0 - ahead / reach) * away
+        return vx + uy * side, vy - ux * side
 
     def _pass_people(self, p: _Person, px: float, py: float, vx: float, vy: float, ux: float,
                      uy: float) -> tuple[float, float]:
@@ -459,18 +590,7 @@ class Simulation:
     def _room(self, x: float, y: float, dx: float, dy: float, reach: float = 1.5) -> float:
         """Free distance [m] from (x, y) along the unit direction (dx, dy) to the nearest wall
         (up to ``reach``): how far a person can step that way."""
-        seg = self.world.segments
-        if len(seg) == 0:
-            return reach
-        ex, ey = seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1]
-        denom = dx * ey - dy * ex
-        ok = np.abs(denom) > 1e-12
-        safe = np.where(ok, denom, 1.0)
-        wx, wy = seg[:, 0] - x, seg[:, 1] - y
-        t = (wx * ey - wy * ex) / safe             # along the ray
-        u = (wx * dy - wy * dx) / safe             # along the segment
-        hit = ok & (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
-        return float(min(reach, t[hit].min())) if np.any(hit) else reach
+        return float(free_distance(self.world.segments, x, y, dx, dy, reach)[0])
 
     def _set_command(self, r: _Robot, cmd: Command) -> None:
         d = r.description

@@ -17,6 +17,12 @@ A world file is TOML (``sim/worlds/*.toml`` are the built-in ones)::
     rect = [4, 1, 6, 3]
     [[routes]]                                    # a pedestrian walks these points to and fro
     points = [[8, 8], [8, 5]]
+    [[alcoves]]                                   # a doorway or niche off a narrow passage:
+    front = [5, 0.75]                             # people held up by a robot step from the
+    back = [5, -0.4]                              # passage (front) into it (back) to let it by
+
+A route's legs and an alcove's front-to-back step may not cross a wall or box: a person would
+push against it for ever (the file is refused, naming the leg).
 
 A ROS map_server map (``.yaml``) is a world too: its occupied cells become boxes (runs of
 cells merged into rectangles), and its spawn is the map's first free cell near the origin.
@@ -24,6 +30,7 @@ cells merged into rectangles), and its spawn is the map's first free cell near t
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import sys
@@ -33,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from kit import maps, msgs
 
@@ -42,7 +49,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["BUILTIN_WORLDS", "World", "WorldError", "load_world", "world_from_grid"]
+__all__ = ["BUILTIN_WORLDS", "World", "WorldError", "free_distance", "load_world",
+           "world_from_grid"]
 
 BUILTIN_WORLDS = ("aisle", "office", "pillars", "square")
 WORLD_DIR = Path(__file__).resolve().parent / "worlds"
@@ -73,6 +81,14 @@ class World:
     """(P, 4) slippery rectangles [xmin, ymin, xmax, ymax]."""
     spawn: FloatArray
     routes: tuple[FloatArray, ...]
+    alcoves: FloatArray = dataclasses.field(
+        default_factory=lambda: _frozen([], float, (4,)))
+    """(A, 4) places to step aside [front x, front y, back x, back y]: the front on the
+    passage, the back out of it."""
+
+    def crosses_wall(self, a: tuple[float, float], b: tuple[float, float]) -> bool:
+        """Whether the straight walk from ``a`` to ``b`` crosses a wall, box or glass."""
+        return _crosses(self.segments, a, b)
 
     @cached_property
     def lidar_segments(self) -> FloatArray:
@@ -153,10 +169,36 @@ def _box_segments(box: tuple[float, float, float, float]) -> list[list[float]]:
     return [[x0, y0, x1, y0], [x1, y0, x1, y1], [x1, y1, x0, y1], [x0, y1, x0, y0]]
 
 
+def free_distance(segments: FloatArray, xs: ArrayLike, ys: ArrayLike, dx: float, dy: float,
+                  reach: float) -> FloatArray:
+    """Free distance [m] from each point (xs, ys) along the unit direction (dx, dy) to the
+    nearest of the (M, 4) ``segments``, up to ``reach``."""
+    px, py = np.atleast_1d(np.asarray(xs, float)), np.atleast_1d(np.asarray(ys, float))
+    if len(segments) == 0:
+        return np.full(len(px), float(reach))
+    ex, ey = segments[:, 2] - segments[:, 0], segments[:, 3] - segments[:, 1]
+    denom = dx * ey - dy * ex
+    ok = np.abs(denom) > 1e-12
+    safe = np.where(ok, denom, 1.0)
+    wx, wy = segments[:, 0] - px[:, None], segments[:, 1] - py[:, None]
+    t = (wx * ey - wy * ex) / safe               # along the ray
+    u = (wx * dy - wy * dx) / safe               # along the segment
+    hit = ok & (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
+    return np.minimum(np.where(hit, t, np.inf).min(axis=1), reach)
+
+
+def _crosses(segments: FloatArray, a: tuple[float, float], b: tuple[float, float]) -> bool:
+    length = math.hypot(b[0] - a[0], b[1] - a[1])
+    if length == 0.0:
+        return False
+    dx, dy = (b[0] - a[0]) / length, (b[1] - a[1]) / length
+    return bool(free_distance(segments, a[0], a[1], dx, dy, length)[0] < length)
+
+
 def _build(name: str, description: str, walls: list[tuple[list[list[float]], str]],
            boxes: list[tuple[float, float, float, float]], circles: list[list[float]],
            oil: list[list[float]], spawn: list[float], routes: list[list[list[float]]],
-           where: str) -> World:
+           where: str, alcoves: list[list[float]] | None = None) -> World:
     segments: list[list[float]] = []
     glass: list[bool] = []
     for points, material in walls:
@@ -180,6 +222,25 @@ def _build(name: str, description: str, walls: list[tuple[list[list[float]], str
         raise WorldError(f"{where}: coordinates must be finite numbers")
     if len(spawn) != 3:
         raise WorldError(f"{where}: spawn is [x, y, yaw]; got {spawn!r}")
+    seg_array = np.array(segments, float).reshape(-1, 4)
+    for i, route in enumerate(routes):
+        pts = np.asarray(route, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 1 or \
+                not np.all(np.isfinite(pts)):
+            raise WorldError(f"{where}: route {i + 1} needs finite [x, y] points; got "
+                             f"{route!r}")
+        for a, b in itertools.pairwise(pts):
+            if _crosses(seg_array, tuple(a), tuple(b)):
+                raise WorldError(f"{where}: route {i + 1} walks through a wall from "
+                                 f"{a.tolist()} to {b.tolist()}")
+    alcoves = [] if alcoves is None else alcoves
+    for i, alcove in enumerate(alcoves):
+        if len(alcove) != 4 or not np.all(np.isfinite(alcove)):
+            raise WorldError(f"{where}: alcove {i + 1} needs a finite front and back [x, y]")
+        if _crosses(seg_array, (alcove[0], alcove[1]), (alcove[2], alcove[3])):
+            raise WorldError(f"{where}: alcove {i + 1}'s step from "
+                             f"{[float(v) for v in alcove[:2]]} to "
+                             f"{[float(v) for v in alcove[2:]]} crosses a wall")
     return World(
         name=name, description=description,
         segments=_frozen(segments, float, (4,)),
@@ -189,6 +250,7 @@ def _build(name: str, description: str, walls: list[tuple[list[list[float]], str
         oil=_frozen(oil, float, (4,)),
         spawn=_frozen(spawn, float, ()),
         routes=tuple(_frozen(r, float, (2,)) for r in routes),
+        alcoves=_frozen([list(map(float, a)) for a in alcoves], float, (4,)),
     )
 
 
@@ -210,13 +272,14 @@ def _world_file(path: Path) -> World:
         circles = [[*c["center"], c["radius"]] for c in data.get("circles", [])]
         oil = [list(o["rect"]) for o in data.get("oil", [])]
         routes = [r["points"] for r in data.get("routes", [])]
+        alcoves = [[*a["front"], *a["back"]] for a in data.get("alcoves", [])]
         spawn = list(data.get("spawn", [0.0, 0.0, 0.0]))
     except (KeyError, TypeError, ValueError) as exc:
         if isinstance(exc, WorldError):
             raise
         raise WorldError(f"{path}: malformed entry ({type(exc).__name__}: {exc})") from None
     return _build(str(data.get("name", path.stem)), str(data.get("description", "")), walls,
-                  boxes, circles, oil, spawn, routes, str(path))
+                  boxes, circles, oil, spawn, routes, str(path), alcoves)
 
 
 def world_from_grid(grid: msgs.OccupancyGrid, name: str = "map") -> World:

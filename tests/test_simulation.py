@@ -18,11 +18,14 @@ def twist(v: float = 0.0, w: float = 0.0) -> msgs.Twist:
     return msgs.Twist(msgs.Vector3(v, 0.0, 0.0), msgs.Vector3(0.0, 0.0, w))
 
 
-def world_of(walls=(), glass=(), circles=(), routes=(), oil=(), spawn=(0.0, 0.0, 0.0)) -> World:
+def world_of(walls=(), glass=(), circles=(), routes=(), oil=(), spawn=(0.0, 0.0, 0.0),
+             boxes=(), polylines=(), alcoves=()) -> World:
     items = [([list(a), list(b)], "wall") for a, b in walls] + \
-        [([list(a), list(b)], "glass") for a, b in glass]
-    return _build("test", "", items, [], [list(c) for c in circles], [list(o) for o in oil],
-                  list(spawn), [list(map(list, r)) for r in routes], "test")
+        [([list(a), list(b)], "glass") for a, b in glass] + \
+        [([list(p) for p in line], "wall") for line in polylines]
+    return _build("test", "", items, [tuple(b) for b in boxes], [list(c) for c in circles],
+                  [list(o) for o in oil], list(spawn), [list(map(list, r)) for r in routes],
+                  "test", [list(a) for a in alcoves])
 
 
 def quiet_lidar(sim: Simulation) -> None:
@@ -144,6 +147,45 @@ def test_a_pedestrian_keeps_clear_of_the_igvs_rear_as_of_its_front():
     sim = Simulation(world=world, robot="igv", seed=2, people=1, start=[0.0, 0.0, 0.0])
     sim.run(15.0, twist(0.0))
     assert not [c for c in sim.collisions if c.other == "person"]
+
+
+def test_a_pedestrian_pushed_off_their_line_against_a_box_walks_round_it():
+    """Pushed off their route's line (passing someone, stepping round a robot), a person
+    heading on for their next point can meet a box face-on; they step round it instead of
+    pushing against it for good (in the aisle a person stood at a box like that for a whole
+    episode, a wall the IGV could not pass)."""
+    world = world_of(walls=[((-1, -1.0), (12, -1.0)), ((-1, 1.0), (12, 1.0))],
+                     boxes=[(4.75, -1.0, 5.25, -0.2)], routes=[[(0.0, 0.0), (10.0, 0.0)]])
+    sim = Simulation(world=world, seed=1, people=1, sensors=False, start=[-0.5, 0.6, 0.0])
+    person = sim.people[0]
+    person.body.position = (4.0, -0.45)          # pushed down beside the box
+    person.target, person.direction = 1, 1
+    sim.run(10.0)
+    x, y = person.body.position
+    assert x > 6.0, f"the person is still at ({x:.2f}, {y:.2f})"
+
+
+def test_a_person_steps_into_a_door_to_let_the_igv_by_then_goes_on():
+    """In a 1.5 m corridor nobody can pass the IGV (0.84 m wide). A person walking toward it
+    steps back into the door behind them before they meet, waits there until it has gone
+    by, then walks on: no contact, though the robot drives straight on blind."""
+    recess = [(-2.0, 0.0), (8.0, 0.0), (8.0, -0.7), (9.0, -0.7), (9.0, 0.0), (20.0, 0.0)]
+    world = world_of(walls=[((-2.0, 1.5), (20.0, 1.5))], polylines=[recess],
+                     routes=[[(14.0, 0.75), (-1.0, 0.75)]],
+                     alcoves=[(8.5, 0.75, 8.5, -0.4)])
+    sim = Simulation(world=world, robot="igv", seed=2, people=1, start=[0.0, 0.75, 0.0])
+    person = sim.people[0]
+    assert person.body.position[0] > 10.0          # starts well beyond the door
+    track, beside = [], []
+    for _ in range(100):
+        sim.run(0.25, twist(0.8))
+        track.append(tuple(person.body.position))
+        if 8.0 < sim.ground_truth().pose[0] < 9.75:  # the body alongside the door
+            beside.append(person.body.position[1])
+    assert not [c for c in sim.collisions if c.other == "person"]
+    assert sim.ground_truth().pose[0] > 15.0       # the robot drove past the door
+    assert beside and max(beside) < -0.1           # meanwhile in the door, out of the way
+    assert track[-1][0] < 6.0                       # and on their way again afterwards
 
 
 def test_several_robots_share_a_world_with_their_own_topics():
@@ -296,6 +338,19 @@ def test_bad_commands_and_worlds_are_refused_clearly(tmp_path):
         load_world(tmp_path / "g.toml")
     with pytest.raises(WorldError, match="neither a built-in world"):
         load_world("moon")
+    walls = "[[walls]]\npoints = [[0, 0], [10, 0], [10, 2], [0, 2], [0, 0]]\n"
+    (tmp_path / "r.toml").write_text(walls + "[[boxes]]\ncenter = [5, 1]\nsize = [1, 1]\n"
+                                     "[[routes]]\npoints = [[1, 1], [9, 1]]\n")
+    with pytest.raises(WorldError, match=r"r\.toml: route 1 walks through a wall from "
+                                         r"\[1\.0, 1\.0\] to \[9\.0, 1\.0\]"):
+        load_world(tmp_path / "r.toml")
+    (tmp_path / "a.toml").write_text(walls + "[[alcoves]]\nfront = [5, 1]\nback = [5, -0.5]\n")
+    with pytest.raises(WorldError, match=r"alcove 1's step from \[5\.0, 1\.0\] to "
+                                         r"\[5\.0, -0\.5\] crosses a wall"):
+        load_world(tmp_path / "a.toml")
+    (tmp_path / "n.toml").write_text(walls + "[[routes]]\npoints = [[1, 1], [1, nan]]\n")
+    with pytest.raises(WorldError, match="route 1 needs finite"):
+        load_world(tmp_path / "n.toml")
 
 
 def test_a_recorded_run_reads_back_equal_and_rosbags_sees_the_types(tmp_path):

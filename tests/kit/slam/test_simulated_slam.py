@@ -95,15 +95,16 @@ def test_office_map_trajectory_and_glass_room(tmp_path):
     assert len(glass) < 10  # no wall where the glass is
 
 
-@pytest.mark.xfail(strict=True, reason="known weakness of kit slam: in seed 3 a person walks "
-                   "beside the robot along the office corridor, at its speed, for about 10 s; "
-                   "the corridor gives no hold along its length, the scans match the person, "
-                   "and the estimate stays behind (5 m by the end). kit slam keeps every return; "
-                   "the navigation stack's SLAM drops those in space already seen free")
-def test_office_slam_is_not_dragged_by_a_person_walking_beside_the_robot(tmp_path):
+@pytest.mark.xfail(strict=True, reason="known weakness of kit slam: in seed 8 a person walks "
+                   "along the office corridor about 1 m behind the robot, at its speed, for "
+                   "several seconds; the corridor gives no hold along its length, the scans "
+                   "match the person, and the estimate falls behind (0.6 m, kept to the end). "
+                   "kit slam keeps every return; the navigation stack's SLAM drops those in "
+                   "space already seen free")
+def test_office_slam_is_not_dragged_by_a_person_walking_with_the_robot(tmp_path):
     from sim.demo import ROUTE
 
-    _, truth = drive("office", ROUTE, tmp_path / "bag", 240.0, seed=3, people=2)
+    _, truth = drive("office", ROUTE, tmp_path / "bag", 240.0, seed=8, people=2)
     assert kit_main(["slam", str(tmp_path / "bag"), "--out", str(tmp_path / "out"),
                      "--quiet"]) == 0
     assert trajectory_error(tmp_path / "out", truth).mean() <= 0.05
