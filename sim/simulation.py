@@ -430,6 +430,7 @@ class Simulation:
             vx, vy = self._step_round_walls(px, py, vx, vy, ux, uy, p.speed, dist)
             vx, vy = self._step_round_robots(px, py, vx, vy, ux, uy, p.speed, robots)
             vx, vy = self._pass_people(p, px, py, vx, vy, ux, uy)
+            vx, vy = self._slide_along_walls(px, py, vx, vy)
             vx, vy = _keep_clear(px, py, vx, vy, robots, velocities, outlines)
             near = any(math.hypot(px - rx, py - ry) < 1.5 for rx, ry in robots)
             bvx, bvy = p.body.velocity                # commanded or really: a push is no way
@@ -443,13 +444,15 @@ class Simulation:
                     outlines: list[FloatArray]) -> None:
         vx, vy = self._step_aside(p, px, py, robots, velocities, outlines)
         vx, vy = self._pass_people(p, px, py, vx, vy, 0.0, 0.0)
+        vx, vy = self._slide_along_walls(px, py, vx, vy)
         vx, vy = _keep_clear(px, py, vx, vy, robots, velocities, outlines)
         p.ground.velocity = _at_most_walking_speed(vx, vy)
 
     def _no_way_past(self, px: float, py: float, ux: float, uy: float) -> bool:
         """Whether a robot within 3.5 m ahead of a person walking along (ux, uy), and not
         going away from them, leaves too little room in the passage to pass it: the room
-        across the person, less the robot's width, under a body and 0.3 m."""
+        across the passage (the narrower of where the person and the robot are), less the
+        robot's width, under a body and 0.3 m."""
         for r in self.robots:
             rx, ry = float(r.pose[0]), float(r.pose[1])
             d = math.hypot(rx - px, ry - py)
@@ -458,7 +461,8 @@ class Simulation:
             rvx, rvy = r.world_velocity
             if (rvx * (px - rx) + rvy * (py - ry)) / d < -0.1:
                 continue                              # going away: follow it
-            across = self._room(px, py, -uy, ux, 3.0) + self._room(px, py, uy, -ux, 3.0)
+            across = min(self._room(x, y, -uy, ux, 3.0) + self._room(x, y, uy, -ux, 3.0)
+                         for x, y in ((px, py), (rx, ry)))   # a door beside one is no way
             width = float(np.ptp(r.description.footprint[:, 1]))
             if across - width < 2 * PERSON_RADIUS + 0.3:
                 return True
@@ -564,6 +568,30 @@ class Simulation:
             away = 1.0 if left < right else -1.0
         side = pace * (1.0 - ahead / reach) * away
         return vx + uy * side, vy - ux * side
+
+    def _slide_along_walls(self, px: float, py: float, vx: float, vy: float
+                           ) -> tuple[float, float]:
+        """The way a person against a wall really goes: along it (the part of their step
+        into the wall is taken out), so that keeping clear of a robot judges the step they
+        will take — pressed to a wall beside a robot, a person pushing into the wall slides
+        along it into the robot's corner."""
+        seg = self.world.segments
+        if len(seg) == 0:
+            return vx, vy
+        ax, ay = seg[:, 0], seg[:, 1]
+        ex, ey = seg[:, 2] - ax, seg[:, 3] - ay
+        length2 = np.maximum(ex * ex + ey * ey, 1e-12)
+        t = np.clip(((px - ax) * ex + (py - ay) * ey) / length2, 0.0, 1.0)
+        nx, ny = px - (ax + t * ex), py - (ay + t * ey)      # from the wall to the person
+        d = np.hypot(nx, ny)
+        for i in np.flatnonzero(d < PERSON_RADIUS + 0.03):
+            if d[i] <= 1e-9:
+                continue
+            ux, uy = nx[i] / d[i], ny[i] / d[i]
+            into = vx * ux + vy * uy
+            if into < 0.0:
+                vx, vy = vx - into * ux, vy - into * uy
+        return vx, vy
 
     def _pass_people(self, p: _Person, px: float, py: float, vx: float, vy: float, ux: float,
                      uy: float) -> tuple[float, float]:

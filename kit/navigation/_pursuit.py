@@ -90,7 +90,13 @@ class PurePursuit:
 
 @dataclass(frozen=True)
 class RppParameters:
-    """Nav2's ``RegulatedPurePursuitController`` parameters (names, meaning, defaults)."""
+    """Nav2's ``RegulatedPurePursuitController`` parameters (names, meaning, defaults), and
+    one of the kit's: ``gentler_arcs_when_colliding`` — when the arc to the lookahead point
+    would collide, try it at 1/2, 1/4, 1/8 and 1/16 of its curvature and straight on, and
+    drive the first that is free, instead of failing at once as Nav2 does. A robot whose
+    ``base_link`` is far ahead of its rear (the IGV's front axle, 0.75 m ahead of its rear
+    corners) swings its rear out on every turn: near a wall, turning back toward the middle
+    of a corridor touches it, while a wide arc leaves the wall before the rear gets there."""
 
     desired_linear_vel: float = 0.5
     lookahead_dist: float = 0.6
@@ -115,6 +121,7 @@ class RppParameters:
     inflation_cost_scaling_factor: float = 3.0
     max_linear_accel: float = 2.5
     controller_frequency: float = 20.0
+    gentler_arcs_when_colliding: bool = True
 
     def __post_init__(self) -> None:
         require_positive(self, ("desired_linear_vel", "lookahead_dist", "min_lookahead_dist",
@@ -198,7 +205,18 @@ class RegulatedPurePursuit:
         v = max(v, 0.0)
         w = v * curvature
         if p.use_collision_detection and costmap is not None:
-            self._check_collision(pose_, v, w, math.sqrt(d2), costmap)
+            try:
+                self._check_collision(pose_, v, w, math.sqrt(d2), costmap)
+            except ControlError:
+                if not (p.gentler_arcs_when_colliding and abs(w) > 1e-9):
+                    raise
+                for share in (0.5, 0.25, 0.125, 0.0625, 0.0):
+                    try:
+                        self._check_collision(pose_, v, w * share, math.sqrt(d2), costmap)
+                    except ControlError:
+                        continue
+                    return v, w * share
+                raise
         return v, w
 
     def _rotate(self, angle: float, w_now: float, dt: float) -> float:

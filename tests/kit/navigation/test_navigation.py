@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from kit import msgs
+from kit import geometry, msgs
 from kit.navigation import (
     FAILED,
     RUNNING,
@@ -217,10 +217,35 @@ def test_rpp_checks_the_first_creeping_step_from_standstill():
     footprint = pad_footprint(igv.footprint, 0.05)
     costs = np.zeros((40, 240), np.uint8)
     costs[30:, :] = LETHAL_OBSTACLE                       # the wall: y >= 1.5
-    ctrl = RegulatedPurePursuit(RppParameters.for_robot(igv), footprint)
+    nav2 = RppParameters.for_robot(igv, gentler_arcs_when_colliding=False)
+    ctrl = RegulatedPurePursuit(nav2, footprint)
     ctrl.set_plan([(8.7, 0.97), (9.3, 0.75), (10.5, 0.6)])   # veering right, off the wall
     with pytest.raises(ControlError, match="collision ahead"):
         ctrl.compute_velocity_commands((8.7, 0.97, -0.12), (0.0, 0.0), Costmap(costs, 0.05))
+
+
+def test_rpp_takes_a_gentler_arc_when_its_own_would_collide_and_fails_when_none_is_free():
+    """The kit's RPP, where Nav2's fails (above), tries the arc at a half, a quarter, … of its
+    curvature and straight on: the IGV beside the wall creeps off on an arc that swings its
+    rear less, which is free; with a wall across its way too, no arc is, and it fails."""
+    igv = load("igv")
+    footprint = pad_footprint(igv.footprint, 0.05)
+    outline = outline_points(footprint, 0.05)
+    costs = np.zeros((40, 240), np.uint8)
+    costs[30:, :] = LETHAL_OBSTACLE                       # the wall: y >= 1.5
+    start = np.array([8.7, 0.97, -0.12])
+    ctrl = RegulatedPurePursuit(RppParameters.for_robot(igv), footprint)
+    ctrl.set_plan([(8.7, 0.97), (9.3, 0.75), (10.5, 0.6)])
+    v, w = ctrl.compute_velocity_commands(start, (0.0, 0.0), Costmap(costs, 0.05))
+    local = geometry.transform_points(geometry.inverse(start), ctrl.last_carrot[None])[0]
+    wanted = v * 2.0 * local[1] / float(local @ local)     # pure pursuit's own arc
+    assert v > 0.0 and wanted < 0.0 and wanted < w <= 0.0  # the same way, gentler
+    times = np.linspace(0.05, 1.0, 20)
+    assert not collides_from(Costmap(costs, 0.05), start, arc_poses(start, v, w, times),
+                             outline).any()
+    costs[:, 181:] = LETHAL_OBSTACLE                      # and a wall just ahead
+    with pytest.raises(ControlError, match="collision ahead"):
+        ctrl.compute_velocity_commands(start, (0.0, 0.0), Costmap(costs, 0.05))
 
 
 def test_dwb_parameters_are_checked():
