@@ -37,7 +37,7 @@ from kit.control import DCMotor
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
 from sim.sensors import Imu, Lidar, encoder_counts
-from sim.world import World, free_distance, load_world
+from sim.world import World, along_walls, free_distance, load_world
 
 __all__ = ["Collision", "GroundTruth", "Physics", "Simulation"]
 
@@ -575,23 +575,7 @@ class Simulation:
         into the wall is taken out), so that keeping clear of a robot judges the step they
         will take — pressed to a wall beside a robot, a person pushing into the wall slides
         along it into the robot's corner."""
-        seg = self.world.segments
-        if len(seg) == 0:
-            return vx, vy
-        ax, ay = seg[:, 0], seg[:, 1]
-        ex, ey = seg[:, 2] - ax, seg[:, 3] - ay
-        length2 = np.maximum(ex * ex + ey * ey, 1e-12)
-        t = np.clip(((px - ax) * ex + (py - ay) * ey) / length2, 0.0, 1.0)
-        nx, ny = px - (ax + t * ex), py - (ay + t * ey)      # from the wall to the person
-        d = np.hypot(nx, ny)
-        for i in np.flatnonzero(d < PERSON_RADIUS + 0.03):
-            if d[i] <= 1e-9:
-                continue
-            ux, uy = nx[i] / d[i], ny[i] / d[i]
-            into = vx * ux + vy * uy
-            if into < 0.0:
-                vx, vy = vx - into * ux, vy - into * uy
-        return vx, vy
+        return along_walls(self.world.segments, px, py, vx, vy, PERSON_RADIUS + 0.03)
 
     def _pass_people(self, p: _Person, px: float, py: float, vx: float, vy: float, ux: float,
                      uy: float) -> tuple[float, float]:
