@@ -225,10 +225,14 @@ def test_rpp_checks_the_first_creeping_step_from_standstill():
 
 
 def test_rpp_takes_a_gentler_arc_when_its_own_would_collide_and_fails_when_none_is_free():
-    """The kit's RPP, where Nav2's fails (above), tries the arc at a half, a quarter, … of its
-    curvature and straight on: the IGV beside the wall creeps off on an arc that swings its
-    rear less, which is free; with a wall across its way too, no arc is, and it fails."""
+    """The kit's RPP for a robot whose rear is far behind its base_link, where Nav2's fails
+    (above), tries the arc at a half, a quarter, … of its curvature and straight on: the IGV
+    beside the wall creeps off on an arc that swings its rear less, which is free; with a
+    wall across its way too, no arc is, and it fails."""
     igv = load("igv")
+    assert RppParameters.for_robot(igv).gentler_arcs_when_colliding       # rear 0.75 m back
+    assert not RppParameters.for_robot(load("uiabot")).gentler_arcs_when_colliding
+    assert not RppParameters().gentler_arcs_when_colliding                 # Nav2's default
     footprint = pad_footprint(igv.footprint, 0.05)
     outline = outline_points(footprint, 0.05)
     costs = np.zeros((40, 240), np.uint8)
