@@ -23,8 +23,9 @@ side of it and wait there until it has gone by; where there is none, they turn b
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -207,19 +208,27 @@ def _at_most_walking_speed(vx: float, vy: float) -> tuple[float, float]:
     return (vx * 1.5 / speed, vy * 1.5 / speed) if speed > 1.5 else (vx, vy)
 
 
+def _in_doorway(px: float, py: float, fx: float, fy: float, bx: float, by: float) -> bool:
+    """Whether a person at (px, py) is already in the doorway of the alcove from (fx, fy) to
+    (bx, by): no farther from its back than its front is."""
+    return math.hypot(bx - px, by - py) <= math.hypot(bx - fx, by - fy)
+
+
 ALCOVE_REACH = 10.0
 """[m] how far a person held up by a robot walks to an alcove to let it by."""
 
 
-def _give_way(p: _Person, held_up: bool, alcove: int = -1) -> None:
+def _give_way(p: _Person, held_up: bool, find_alcove: Callable[[], int] | None = None
+              ) -> None:
     """Held up by a robot (going on at under a fifth of their pace with one within 1.5 m) for
-    1 s, a person with an alcove on their side of it (``alcove``) steps into it; with none,
-    after 4 s, they give way by turning back along their route."""
+    1 s, a person with an alcove on their side of it (``find_alcove()``, asked only then)
+    steps into it; with none, after 4 s, they give way by turning back along their route."""
     if not held_up:
         p.blocked = 0.0
         return
     p.blocked += WALK_PERIOD
-    if p.blocked >= 1.0 and alcove >= 0:
+    alcove = find_alcove() if find_alcove is not None and p.blocked >= 1.0 else -1
+    if alcove >= 0:
         p.alcove, p.stage, p.blocked = alcove, 1, 0.0
     elif p.blocked >= 4.0 and len(p.route) > 1:
         p.direction = -p.direction
@@ -436,7 +445,7 @@ class Simulation:
             bvx, bvy = p.body.velocity                # commanded or really: a push is no way
             held = near and dist > 1e-9 and min(vx * ux + vy * uy, bvx * ux + bvy * uy) < \
                 0.2 * p.speed
-            _give_way(p, held, self._alcove_for(px, py, robots) if held else -1)
+            _give_way(p, held, functools.partial(self._alcove_for, px, py, robots))
             p.ground.velocity = _at_most_walking_speed(vx, vy)
 
     def _walk_aside(self, p: _Person, px: float, py: float,
@@ -483,8 +492,8 @@ class Simulation:
         for i, (fx, fy, bx, by) in enumerate(alcoves):
             if i in taken:
                 continue
-            if math.hypot(bx - px, by - py) <= math.hypot(bx - fx, by - fy):
-                fx, fy = bx, by                  # already in its doorway: straight in
+            if _in_doorway(px, py, fx, fy, bx, by):
+                fx, fy = bx, by                  # straight in
             d = math.hypot(fx - px, fy - py)
             if d < best and (fx - px) * ax + (fy - py) * ay > -0.3 and \
                     not self.world.crosses_wall((px, py), (float(fx), float(fy))):
@@ -499,8 +508,8 @@ class Simulation:
         by someone else, it has yet to go by), back out to its front, then on along their
         route as before."""
         fx, fy, bx, by = (float(v) for v in self.world.alcoves[p.alcove])
-        if p.stage == 1 and math.hypot(bx - px, by - py) <= math.hypot(bx - fx, by - fy):
-            p.stage = 2                                  # already in its doorway
+        if p.stage == 1 and _in_doorway(px, py, fx, fy, bx, by):
+            p.stage = 2
         if p.stage == 3:
             for (rx, ry), (rvx, rvy), outline in zip(robots, velocities, outlines,
                                                     strict=True):
