@@ -20,12 +20,29 @@ __all__ = ["compare", "generic_hint"]
 _NUMERIC = (int, float, np.integer, np.floating, np.bool_)
 
 
+PRECISION = 6
+"""decimals of the numbers in a message."""
+
+
+def _without_negative_zero(value: np.ndarray) -> np.ndarray:
+    """``value`` as printed: rounded to :data:`PRECISION` decimals, and every zero unsigned.
+
+    The sign of a zero (and of a value that rounds to zero) depends on the order of the
+    floating-point operations, which depends on the CPU's vector instructions; a message must
+    not say ``-0.`` on one machine and ``0.`` on another.
+    """
+    if value.dtype.kind not in "fc":
+        return value
+    shown = np.round(value, PRECISION)
+    return shown + np.zeros((), dtype=shown.dtype)  # -0.0 + 0.0 is +0.0
+
+
 def _fmt(value: Any) -> str:
     if isinstance(value, np.ndarray):
-        with np.printoptions(precision=6, suppress=True, threshold=12, edgeitems=3):
-            return np.array2string(value, separator=", ")
-    if isinstance(value, float):
-        return f"{value:.6g}"
+        with np.printoptions(precision=PRECISION, suppress=True, threshold=12, edgeitems=3):
+            return np.array2string(_without_negative_zero(value), separator=", ")
+    if isinstance(value, (float, np.floating)):
+        return f"{float(value) + 0.0:.6g}"  # + 0.0: no negative zero
     text = repr(value)
     return text if len(text) <= 200 else text[:200] + "…"
 
@@ -150,7 +167,10 @@ def compare(expected: Any, got: Any, rtol: float = 1e-6, atol: float = 1e-9,
     if isinstance(got, (list, tuple)) and isinstance(expected, np.ndarray):
         message += f" (a {type(got).__name__} was returned; a numpy array is expected)"
     if g_f.ndim:
-        worst = tuple(int(v) for v in np.unravel_index(int(np.argmax(err)), err.shape))
+        # the first of the (nearly) largest errors: which of two equal errors is larger in
+        # the last bit depends on the machine, the message must not
+        first = int(np.flatnonzero(err.ravel() >= err.max() * (1.0 - 1e-9))[0])
+        worst = tuple(int(v) for v in np.unravel_index(first, err.shape))
         message += f" (largest error {float(err[worst]):.3g} at index {worst})"
     hint = generic_hint(e_f, g_f, rtol, atol) if hints else ""
     return f"{message}; hint: {hint}" if hint else message

@@ -105,6 +105,7 @@ def release_notebook(nb: nbformat.NotebookNode, name: str = "notebook",
         where = f"{name}, cell {index + 1}"
         if lab is not None:
             cell.metadata["nbgrader"] = nbgrader_metadata(cell, index, points, lab)
+        cell.metadata.pop("execution", None)  # the instructor's run's timings
         if cell.cell_type == "code":
             cell.source = strip_solutions(cell.source, where)
             cell.outputs = []

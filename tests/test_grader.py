@@ -145,6 +145,25 @@ def test_compare_accepts_lists_tuples_and_tolerance():
         frame_id="base_link"), "base_link"))
 
 
+def test_messages_never_print_a_negative_zero():
+    """The sign of a zero depends on the CPU's vector code path: a message must read the same
+    on every machine (a stored notebook output once said ``-0.`` here and ``0.`` there)."""
+    message = compare(np.array([0.15708, -0.0]), np.array([0.0, 0.15708]))
+    assert "expected [0.15708, 0.     ]" in message
+    assert "-0" not in compare(np.array([-1e-12, 1.0]), np.array([2.0, 1.0]))
+    assert "-0" not in compare(np.array([[-0.0, 1.0]]), np.array([[-0.0, 3.0]]))
+    assert compare(-0.0, 1.0) == "the output: expected 0., got 1."
+    assert "-0" not in compare(np.float64(-0.0), "x")
+
+
+def test_the_largest_error_is_the_first_of_equal_ones():
+    """Two errors equal up to the last bit: which one is reported must not depend on it."""
+    a = np.array([0.15707963267948966, 0.0])
+    for nudge in (0.0, 1e-17, -1e-17):
+        got = np.array([0.0, 0.15707963267948966 + nudge])
+        assert "at index (0,)" in compare(a, got)
+
+
 # ------------------------------------------------------------------ check cells
 
 def test_check_says_not_implemented_passes_and_explains(capsys):
