@@ -79,6 +79,10 @@ class Exercise:
     time_limit: float = 0.0
     """Seconds per case (0: the grader's default, at most 10 s); a harness running a
     simulated episode needs longer."""
+    uses: tuple[str, ...] = ()
+    """Functions of the lab's earlier exercises that the student's solution of this one calls
+    (``scan_to_points`` uses ``beam_angles``): when one of them fails its own cases, a failure
+    here says so, pointing the student upstream."""
 
     def hidden_cases(self, seed: int) -> tuple[Case, ...]:
         return tuple(self.hidden(np.random.default_rng(seed)))

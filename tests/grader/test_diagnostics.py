@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from grader.checker import explain
-from grader.spec import lab_names, load_lab
+from grader.spec import course_seed, lab_names, load_lab
 from kit import msgs
 
 LABS = lab_names()  # every lab with a spec must have its mistakes catalogued here
@@ -924,6 +924,48 @@ def test_each_classic_mistake_gets_exactly_its_hint(lab, function, mistake, bugg
     for case_name, names in failing:
         assert mistake in names and names <= allowed, (case_name, names)
     assert any(names == {mistake} for names in failing_public), failing_public
+
+
+# ------------------------------------------------------------------ every student loses points
+
+STUDENTS = (*(f"student{i:02d}" for i in range(20)), "Zoë", "李明")
+SECRETS = ("course-secret-one", "course-secret-two")
+CAUGHT_ONLY_IN_PUBLIC: set[tuple[str, str]] = set()
+"""(function, mistake) pairs that only the public cases can see, each with its reason in a
+comment: every other mistake must be caught by each student's hidden cases alone, so that a
+submission that fits the public cases by hand still loses points."""
+
+
+def _fails(exercise, fn, cases) -> bool:
+    for case in cases:
+        try:
+            got = fn(*case.args, **case.kwargs)
+        except Exception:
+            return True
+        if explain(exercise, case, got) is not None:
+            return True
+    return False
+
+
+def _students_spared(exercise, fn) -> list[tuple[str, str]]:
+    """The (secret, student) pairs whose hidden cases all pass ``fn``."""
+    return [(secret, student) for secret in SECRETS for student in STUDENTS
+            if not _fails(exercise, fn, exercise.hidden_cases(
+                course_seed(exercise.id, student, secret)))]
+
+
+@pytest.mark.parametrize(("lab", "function", "mistake", "buggy"), ENTRIES,
+                         ids=[f"{lab}.{fn}: {name}" for lab, fn, name, _ in ENTRIES])
+def test_each_classic_mistake_loses_points_for_every_student(lab, function, mistake, buggy):
+    """Whether a mistake costs points must not depend on which hidden cases a student's seed
+    drew: the generators always include the cases that tell it apart."""
+    exercise = load_lab(lab).exercise(function)
+    if (function, mistake) in CAUGHT_ONLY_IN_PUBLIC:
+        assert _fails(exercise, buggy, exercise.public)
+        return
+    spared = _students_spared(exercise, buggy)
+    assert not spared, (f"{len(spared)} of {len(SECRETS) * len(STUDENTS)} students' hidden "
+                        f"cases miss {mistake!r}, e.g. {spared[:3]}")
 
 
 def test_the_catalogue_covers_every_exercise_and_every_diagnostic():
