@@ -91,6 +91,21 @@ def generic_hint(expected: np.ndarray, got: np.ndarray, rtol: float, atol: float
     return ""
 
 
+def _compare_bytes(expected: bytes, got: Any, path: str) -> str | None:
+    if not isinstance(got, (bytes, bytearray)):
+        return f"{path} should be bytes; got {type(got).__name__}"
+    if bytes(got) == expected:
+        return None
+    got = bytes(got)
+    first = next((i for i, (a, b) in enumerate(zip(expected, got, strict=False)) if a != b),
+                 min(len(expected), len(got)))
+    return (f"{path}: expected {expected.hex(' ').upper()}, got {got.hex(' ').upper()} "
+            f"({len(got)} bytes instead of {len(expected)}; first difference at byte "
+            f"{first})" if len(got) != len(expected) else
+            f"{path}: expected {expected.hex(' ').upper()}, got {got.hex(' ').upper()} "
+            f"(first difference at byte {first})")
+
+
 def compare(expected: Any, got: Any, rtol: float = 1e-6, atol: float = 1e-9,
             path: str = "the output", hints: bool = True) -> str | None:
     """``None`` if ``got`` matches ``expected`` within the tolerances, else a message."""
@@ -109,18 +124,7 @@ def compare(expected: Any, got: Any, rtol: float = 1e-6, atol: float = 1e-9,
         return None
 
     if isinstance(expected, bytes):
-        if not isinstance(got, (bytes, bytearray)):
-            return f"{path} should be bytes; got {type(got).__name__}"
-        if bytes(got) == expected:
-            return None
-        got = bytes(got)
-        first = next((i for i, (a, b) in enumerate(zip(expected, got, strict=False)) if a != b),
-                     min(len(expected), len(got)))
-        return (f"{path}: expected {expected.hex(' ').upper()}, got {got.hex(' ').upper()} "
-                f"({len(got)} bytes instead of {len(expected)}; first difference at byte "
-                f"{first})" if len(got) != len(expected) else
-                f"{path}: expected {expected.hex(' ').upper()}, got {got.hex(' ').upper()} "
-                f"(first difference at byte {first})")
+        return _compare_bytes(expected, got, path)
 
     if isinstance(expected, str):
         if got != expected:
