@@ -141,7 +141,7 @@ class Conversation:
         return self.session
 
     def _lost_in_cells(self, session: Session, lost: SessionLost) -> None:
-        ending = session.finish(lost.why if lost.why != "ended" else "", not self.hidden)
+        ending = session.finish(lost.why, not self.hidden)
         event = self._ended(ending, cpu_limit=self.timeout / 2)
         cell = next((c for c in self.cells if c["position"] == lost.cell), None)
         if cell is None:
@@ -181,7 +181,7 @@ class Conversation:
         try:
             return session.ask(op, payload, wall=3 * cpu_limit + 10.0)
         except SessionLost as lost:
-            self.end(lost.why if lost.why != "ended" else "")
+            self.end(lost.why)
             raise
 
     def cases(self, ex: Exercise, cases: Sequence[Case], public: bool
@@ -226,6 +226,8 @@ class Conversation:
             result = harness(factory, *case.args, **case.kwargs)
         except SessionLost as lost:
             return "lost", scoring.lost_case(label, public, _lost_words(lost, limit))[1]
+        except NotImplementedError:
+            return "not implemented", CaseOutcome(label, public, False, "not implemented yet")
         return scoring.judge_value(ex, case, result, label, public)
 
     def run(self) -> dict[str, ExerciseResult]:
@@ -344,6 +346,11 @@ class RemoteFactory:
 
 
 class RemoteObject:
+    """A controller living in the submission's process (a harness checks its answers, and
+    does not time its calls: the submission's process does, on its own CPU time)."""
+
+    __kit_remote__ = True
+
     def __init__(self, factory: RemoteFactory, handle: int, methods: list[str]) -> None:
         self._factory, self._handle = factory, handle
         for name in methods:
@@ -370,15 +377,25 @@ def _raise_failure(header: dict[str, Any], public: bool) -> None:
     if status == "returned":
         return
     if status == "timeout":
-        raise RemoteTimeout("used up its CPU time on one step")
+        raise RemoteTimeout(f"used up its CPU time on one call{_place(header, public)}")
+    if status == "not implemented":
+        raise NotImplementedError
     kind = str(header.get("type", "Exception"))
     message = clean_text(str(header.get("message", "")))[:300] if public else ""
+    message = message.removeprefix(f"raised {kind}: ")
     if kind == "ControlError":
         from kit.navigation import ControlError
 
-        raise ControlError(message.partition(": ")[2] or "control failed" if public else
-                           "control failed")
-    raise RemoteError(kind if public else "an exception", message or "raised an exception")
+        raise ControlError(message.rpartition(" (cell ")[0] or message or "control failed"
+                           if public else "control failed")
+    if status == "memory":
+        kind, message = "MemoryError", "ran out of memory"
+    raise RemoteError(kind if public else "an exception", message or "(no message)")
+
+
+def _place(header: dict[str, Any], public: bool) -> str:
+    where = str(header.get("where", "")) if public else ""
+    return f" ({clean_text(where)[:80]})" if where else ""
 
 
 # ------------------------------------------------------------------ the verdict
@@ -397,6 +414,9 @@ def classify_ending(ending: Ending, cpu_seconds: int, memory_mb: int, hidden: bo
         return Event("crashed", "something in the notebook wrote to the grader's channel",
                      hidden)
     sig = ending.signal
+    if ending.lost == "ended" and sig is None and ending.exit in (0, None):
+        return Event("crashed", "the process ended while the grader waited for an answer",
+                     hidden)
     if sig == signal.SIGKILL and not ending.killed_by_grader:
         if ending.cpu >= cpu_seconds - 1:
             return Event("timeout", f"used more than {cpu_seconds} s of CPU", hidden)

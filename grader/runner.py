@@ -187,7 +187,10 @@ def signature_of(fn: Any) -> str:
 def _failure(exc: BaseException) -> dict[str, Any]:
     """What went wrong in a call, in the words a public case may show."""
     if isinstance(exc, CaseTimeout):
-        return {"status": "timeout"}
+        mine = [f for f in traceback.extract_tb(exc.__traceback__)
+                if f.filename.startswith("<cell ")]
+        return {"status": "timeout", **({"where": f"{mine[-1].filename[1:-1]}, line "
+                                                  f"{mine[-1].lineno}"} if mine else {})}
     if isinstance(exc, NotImplementedError):
         return {"status": "not implemented"}
     if isinstance(exc, MemoryError):

@@ -48,7 +48,9 @@ def _public_failure(answer: dict[str, Any], limit: float) -> tuple[str, str]:
     status = str(answer.get("status"))
     message = str(answer.get("message", ""))[:MESSAGE_LIMIT]
     if status == "timeout":
-        return "timeout", f"did not return within {limit:g} s of CPU time (an endless loop?)"
+        where = str(answer.get("where", ""))[:80]
+        return "timeout", (f"did not return within {limit:g} s of CPU time (an endless loop?"
+                           f"{f' in {where}' if where else ''})")
     if status == "not implemented":
         return "not implemented", "not implemented yet"
     if status == "memory":

@@ -290,7 +290,7 @@ class Session:
         deadline = time.monotonic() + wall
         try:
             frames.write_all(self.channel, frames.encode(
-                {"op": op, "id": qid}, [pickle.dumps(payload, protocol=5)]), deadline)
+                {"op": op, "id": qid}, [_pickled(payload)]), deadline)
             while True:
                 header, blobs = self.reader.read(deadline)
                 if header.get("op") == "started" and isinstance(header.get("cell"), int):
@@ -311,12 +311,12 @@ class Session:
         is ``False`` once it has held hidden inputs: then nothing it printed is read."""
         if self.ending is not None:
             return self.ending
-        with contextlib.suppress(OSError):
+        with contextlib.suppress(OSError, frames.FrameError, frames.FrameTimeout):
             if not lost:
                 frames.write_all(self.channel, frames.encode({"op": "bye"}),
                                  time.monotonic() + 2.0)
         self.channel.close()
-        report = self._report(kill=bool(lost))
+        report = self._report(kill=bool(lost) and lost != "ended")
         ending = Ending(lost=lost)
         if report is None:
             ending.unknown = ("the grading server stopped (killed from outside?)"
@@ -377,6 +377,29 @@ class Session:
                 return data or None
             data += chunk
         return data.split(b"\n", 1)[0]
+
+
+def _reduce_robot(robot: Any) -> tuple[Any, tuple[str]]:
+    from kit.robots import load
+
+    return load, (str(robot.source),)
+
+
+def _pickled(payload: Any) -> bytes:
+    """A question's arguments for the submission's process (the grader's own objects, so
+    pickle is safe here; answers never travel this way). A robot description travels as the
+    file it was loaded from."""
+    import copyreg
+    import io
+
+    from kit.robots import RobotDescription
+
+    buffer = io.BytesIO()
+    pickler = pickle.Pickler(buffer, protocol=5)
+    pickler.dispatch_table = copyreg.dispatch_table.copy()
+    pickler.dispatch_table[RobotDescription] = _reduce_robot
+    pickler.dump(payload)
+    return buffer.getvalue()
 
 
 @contextlib.contextmanager

@@ -65,7 +65,14 @@ def clean_text(text: str) -> str:
 
 
 def normalise_student(text: str) -> str:
-    """The id a student is graded and filed under: NFC, surrounding blanks removed."""
+    """The id a student is graded and filed under: NFC, surrounding blanks removed; a name
+    that is not UTF-8 (the file system's bytes, decoded with ``surrogateescape``) keeps its
+    bytes as escapes (``caf\xe9``)."""
+    if SURROGATE.search(text):
+        try:
+            text = os.fsencode(text).decode("utf-8", "backslashreplace")
+        except UnicodeEncodeError:
+            pass
     return unicodedata.normalize("NFC", clean_text(text)).strip()
 
 
