@@ -7,8 +7,9 @@
 * ``$(find pkg)`` and ``package://pkg/…`` need a ROS package's folder. Without ROS,
   :func:`package_directory` looks, in turn, in ``package_paths`` (``{"pkg": DIR}``; on the
   command line ``--package-path pkg=DIR``), the environment variable ``KIT_PACKAGE_PATH``
-  (``pkg=DIR`` entries separated by ``:``), the folders above the file (a file inside
-  ``…/pkg/urdf/`` finds ``pkg``) and a sourced ROS environment (``AMENT_PREFIX_PATH``,
+  (``pkg=DIR`` entries separated by ``:``), the source tree around the file (a file inside
+  ``…/pkg/urdf/`` finds ``pkg``; a file in a cloned repository finds the repository's other
+  packages by their ``package.xml``) and a sourced ROS environment (``AMENT_PREFIX_PATH``,
   ``ROS_PACKAGE_PATH``); a package found nowhere is an error that says how to provide it.
 * :func:`read_bag_description` takes a robot's URDF from a bag's ``/robot_description``
   (``robot_state_publisher`` publishes it latched, so ``ros2 bag record -a`` keeps it) and its
@@ -113,9 +114,9 @@ def package_directory(package: str, near: Path | None = None,
                                             f"{folder}, is not a folder")
             return folder
     if near is not None:
-        for folder in Path(near).resolve().parents:
-            if folder.name == package:
-                return folder
+        found = _package_near(package, Path(near))
+        if found is not None:
+            return found
     for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
         if prefix and (Path(prefix) / "share" / package).is_dir():
             return Path(prefix) / "share" / package
@@ -125,6 +126,34 @@ def package_directory(package: str, near: Path | None = None,
         if root and Path(root).name == package and Path(root).is_dir():
             return Path(root)
     raise _PackageNotFound(package)
+
+
+_PACKAGE_NAME = re.compile(r"<name>\s*([^<\s]+)\s*</name>")
+
+
+def _package_name(folder: Path) -> str | None:
+    try:
+        match = _PACKAGE_NAME.search((folder / "package.xml").read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError):
+        return None
+    return match.group(1) if match else None
+
+
+def _package_near(package: str, near: Path, levels: int = 5) -> Path | None:
+    """``package`` in the source tree around ``near``, as colcon would find it in a workspace:
+    a folder above it named so or whose package.xml names it, else a package.xml naming it
+    one or two folders below one of those five folders above (so a file in a cloned
+    repository finds the repository's other packages)."""
+    ancestors = list(Path(near).resolve().parents)[:levels]
+    for folder in ancestors:
+        if folder.name == package or _package_name(folder) == package:
+            return folder
+    for folder in ancestors:
+        for pattern in ("*/package.xml", "*/*/package.xml"):
+            for manifest in sorted(folder.glob(pattern))[:500]:
+                if _package_name(manifest.parent) == package:
+                    return manifest.parent
+    return None
 
 
 def _how_to_provide(package: str) -> str:
@@ -151,15 +180,20 @@ def resolve_uri(uri: str, near: Path | None,
 
 
 @contextlib.contextmanager
-def _xacro_finds(source: Path, package_paths: Mapping[str, str | Path] | None
-                 ) -> Iterator[Any]:
+def _xacro_finds(source: Path, package_paths: Mapping[str, str | Path] | None,
+                 guessed: dict[str, Path]) -> Iterator[Any]:
     """xacro with ``$(find pkg)`` (and ``${find('pkg')}``) answered by
-    :func:`package_directory` instead of ament_index/rospkg, restored afterwards."""
+    :func:`package_directory` instead of ament_index/rospkg, restored afterwards; the
+    packages found without being named (``package_paths``, ``KIT_PACKAGE_PATH``) go into
+    ``guessed``."""
     import xacro
     import xacro.substitution_args as substitution
 
     def find(package: str) -> str:
-        return str(package_directory(package, source, package_paths))
+        folder = package_directory(package, source, package_paths)
+        if package not in (package_paths or {}) and package not in _environment_paths():
+            guessed[package] = folder
+        return str(folder)
 
     saved = substitution._eval_find, substitution._eval_dict.get("find")
     substitution._eval_find = find
@@ -184,7 +218,8 @@ def _expand(path: Path, xacro_args: Mapping[str, str],
             package_paths: Mapping[str, str | Path] | None) -> tuple[str, list[str]]:
     notes: list[str] = []
     stderr = io.StringIO()
-    with _xacro_finds(path, package_paths) as xacro:
+    guessed: dict[str, Path] = {}
+    with _xacro_finds(path, package_paths, guessed) as xacro:
         xacro.all_includes.clear()
         try:
             with contextlib.redirect_stderr(stderr):
@@ -205,6 +240,11 @@ def _expand(path: Path, xacro_args: Mapping[str, str],
                     f"--xacro-arg {name}:=VALUE (in Python: xacro_args={{{name!r}: ...}})"
                 ) from None
             message = " ".join(str(exc).split())
+            if isinstance(inner, FileNotFoundError) and guessed:
+                message += "; " + "; ".join(
+                    f"$(find {name}) was taken as {folder}, found in the source tree: where "
+                    f"the package installs its files elsewhere, give --package-path "
+                    f"{name}=DIR" for name, folder in guessed.items())
             raise RobotDescriptionError(f"{path}: xacro could not expand it: {message}") \
                 from None
         includes = [str(f) for f in xacro.all_includes]
@@ -223,6 +263,8 @@ def _expand(path: Path, xacro_args: Mapping[str, str],
             notes.append(f"xacro: {line.strip()}")
     if includes:
         notes.append(f"xacro included {', '.join(Path(f).name for f in includes)}")
+    notes.extend(f"$(find {name}) taken as {folder}, found in the source tree"
+                 for name, folder in guessed.items())
     return doc.toxml(), notes
 
 

@@ -334,7 +334,8 @@ def find_wheels(urdf: Urdf, base: str, reader: MeshReader | None = None,
             f"{urdf.source}: no pair of drive wheels: expected two continuous joints (or "
             f"revolute ones with a full turn of range) turning about {base}'s y axis, one at "
             f"y > 0 (left) and one at y < 0 (right), neither a mimic nor a caster's; joints "
-            f"that turn: {seen}" + _rep103_diagnosis(urdf, base, turning))
+            f"that turn: {seen}" + (f"; left out: {'; '.join(notes)}" if notes else "")
+            + _rep103_diagnosis(urdf, base, turning))
     for j in rights + lefts:
         side = "left" if j in lefts else "right"
         other = "right" if side == "left" else "left"
@@ -440,18 +441,30 @@ def footprint(urdf: Urdf, base: str, wheels: Wheels,
                      f"{radius:.3f} m (half the separation plus a wheel radius) round the axle")
 
 
+def _sensor_frame(urdf: Urdf, base: str, link: str, sensor: SensorTag | None) -> FloatArray:
+    return urdf.transform(link, base) @ (sensor.pose if sensor is not None else np.eye(4))
+
+
+def _level(urdf: Urdf, base: str, link: str, sensor: SensorTag | None = None) -> bool:
+    """Whether the frame's x-y plane (a planar lidar's scan plane) is level in the base."""
+    return abs(float(_sensor_frame(urdf, base, link, sensor)[2, 2])) > _ALONG
+
+
 def _mount(urdf: Urdf, base: str, link: str, sensor: SensorTag | None, how: str) -> Mount:
-    T = urdf.transform(link, base) @ (sensor.pose if sensor is not None else np.eye(4))
+    T = _sensor_frame(urdf, base, link, sensor)
     pose = (round(float(T[0, 3]), 9), round(float(T[1, 3]), 9),
             round(math.atan2(T[1, 0], T[0, 0]), 9))
+    if T[2, 2] < 0:
+        how += " (mounted upside down: the kit's planar lidar takes it as upright)"
     return Mount(link, pose, sensor, how)
 
 
 def find_lidar(urdf: Urdf, base: str, frame: str | None = None,
                given_by: str = "the parameter file") -> Mount | None:
     """The planar lidar: the link named ``frame`` if given (by ``given_by``); else the Gazebo
-    ray/lidar sensor with the most beams (20 or more: single-beam cliff and IR sensors are no
-    scanner); else the first link whose name says lidar, laser or scan. None if none."""
+    ray/lidar sensor with the most beams whose scan plane is level (20 beams or more, not a
+    cliff, IR or sonar sensor: the Kobuki's cliff sensors are 50-beam rays pointing down); else
+    the first level link whose name says lidar, laser or scan. None if there is none."""
     if frame is not None:
         if not urdf.has_link(frame):
             raise RobotDescriptionError(f"{urdf.source}: the lidar frame {frame!r} of "
@@ -459,14 +472,15 @@ def find_lidar(urdf: Urdf, base: str, frame: str | None = None,
         tags = [s for s in urdf.sensors if s.link == frame and s.type in LIDAR_TYPES]
         return _mount(urdf, base, frame, tags[0] if tags else None, f"{given_by}'s frame_id")
     scanners = [s for s in urdf.sensors if s.type in LIDAR_TYPES and
-                s.values.get("samples", 0) >= 20]
+                s.values.get("samples", 0) >= 20 and not _NOT_LIDAR.search(s.name + s.link)
+                and _level(urdf, base, s.link, s)]
     if scanners:
         best = max(scanners, key=lambda s: s.values.get("samples", 0))
         return _mount(urdf, base, best.link, best,
                       f"the Gazebo {best.type} sensor {best.name!r}")
     for link in urdf.links:
         if _LIDAR_NAME.search(link.name) and not _NOT_LIDAR.search(link.name) and \
-                link.name != base:
+                link.name != base and _level(urdf, base, link.name):
             return _mount(urdf, base, link.name, None, "its link's name")
     return None
 

@@ -543,6 +543,19 @@ def _from_urdf(text: str, label: str, source: Path, params: dict[str, Any], wher
         how="the wheel joints' <limit velocity>",
         default=round((v_max + w_max * wheels.separation / 2) / wheels.radius, 9),
         why="enough for the top linear and angular speeds together")
+    drive_given = params.get("drive", {})
+    top_v = round(wheel_speed * wheels.radius, 9)
+    top_w = round(2 * wheel_speed * wheels.radius / wheels.separation, 9)
+    if "max_linear_velocity" not in drive_given and v_max > top_v:
+        v_max = top_v
+        s.assumed = [a for a in s.assumed if not a.startswith("max_linear_velocity ")]
+        s.assumed.append(f"max_linear_velocity {v_max:g}: the wheels' top speed "
+                         f"({wheel_speed:g} rad/s) allows no more than the default")
+    if "max_angular_velocity" not in drive_given and w_max > top_w:
+        w_max = top_w
+        s.assumed = [a for a in s.assumed if not a.startswith("max_angular_velocity ")]
+        s.assumed.append(f"max_angular_velocity {w_max:g}: the wheels' top speed "
+                         f"({wheel_speed:g} rad/s) allows no more than the default")
     gear = s.number("drive", "gear_ratio", default=DEFAULTS["drive"]["gear_ratio"],
                     why="encoder counts taken at the wheel")
     resolution = s.number("drive", "encoder_resolution", default=DEFAULTS["drive"][

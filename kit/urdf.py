@@ -185,6 +185,12 @@ class Urdf:
         for name in (frame, base):
             if name not in self._links and not name.startswith(("collision:", "visual:")):
                 raise KeyError(f"{self.source}: no link named {name!r}")
+        if frame in self._links and base in self._links and \
+                self.root_of(frame) != self.root_of(base):
+            raise RobotDescriptionError(
+                f"{self.source}: no joints join {frame!r} to {base!r}: they hang from "
+                f"different roots ({self.root_of(frame)!r}, {self.root_of(base)!r}); a robot's "
+                f"links form one tree")
         return np.asarray(self._tm.get_transform(frame, base), dtype=np.float64)
 
     def pose2d(self, frame: str, base: str) -> FloatArray:

@@ -215,3 +215,28 @@ def test_a_bag_without_the_topic_or_with_another_type_on_it_is_named(shared_data
         description_files.read_bag_description(tmp_path / "x.mcap")
     with pytest.raises(RobotDescriptionError, match=r"gone\.bag: no such bag"):
         description_files.read_bag_description(tmp_path / "gone.bag")
+
+
+def test_a_package_in_the_same_source_tree_is_found_by_its_package_xml(tmp_path):
+    """A cloned repository with two packages: the robot's file includes the other one's
+    macro through $(find); the kit finds it by its package.xml and says so."""
+    repo = tmp_path / "clone"
+    for folder, name in (("robot_a", "robot_a_bringup"), ("common", "shared_parts")):
+        (repo / folder / "urdf").mkdir(parents=True)
+        (repo / folder / "package.xml").write_text(f"<package><name>{name}</name></package>")
+    (repo / "common" / "urdf" / "parts.xacro").write_text(
+        "<robot xmlns:xacro='http://ros.org/wiki/xacro'><xacro:macro name='box_link' "
+        "params='name'><link name='${name}'/></xacro:macro></robot>")
+    top = repo / "robot_a" / "urdf" / "robot.urdf.xacro"
+    top.write_text("<robot name='a' xmlns:xacro='http://ros.org/wiki/xacro'><xacro:include "
+                   "filename='$(find shared_parts)/urdf/parts.xacro'/><xacro:box_link "
+                   "name='base_link'/></robot>")
+    text, notes = description_files.read_urdf(top)
+    assert urdf.parse(text, "a").links[0].name == "base_link"
+    assert f"$(find shared_parts) taken as {repo / 'common'}, found in the source tree" in notes
+    (repo / "common" / "urdf" / "parts.xacro").unlink()
+    with pytest.raises(RobotDescriptionError, match=r"No such file or directory.*\$\(find "
+                       r"shared_parts\) was taken as .*common, found in the source tree: where "
+                       r"the package installs its files elsewhere, give --package-path "
+                       r"shared_parts=DIR"):
+        description_files.read_urdf(top)

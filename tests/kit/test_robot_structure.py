@@ -305,3 +305,45 @@ def test_named_wheels_are_checked_against_rep103_in_the_composed_frame():
                        r"composed from the root, the right wheel 'right_wheel_joint' is at "
                        r"y=0\.1"):
         robot_structure.named_wheels(model, "base_link", "right_wheel_joint", "left_wheel_joint")
+
+
+def test_a_ray_sensor_pointing_down_is_a_cliff_sensor_not_the_lidar():
+    """The Kobuki's cliff sensors are 50-beam Gazebo rays pitched down by π/2."""
+    cliff = (link("cliff_left") + joint("cl", "fixed", "base_link", "cliff_left", "0.09 0.14 0.02",
+                                        f"0 {HALF_PI} 0") +
+             "<gazebo reference='cliff_left'><sensor type='ray' name='cliff_left'><ray><scan>"
+             "<horizontal><samples>50</samples><min_angle>-0.01</min_angle><max_angle>0.01"
+             "</max_angle></horizontal></scan></ray></sensor></gazebo>")
+    model = urdf.parse(robot(wheel("l", 0.1), wheel("r", -0.1), cliff), "r.urdf")
+    assert robot_structure.find_lidar(model, "base_link") is None
+
+
+def test_a_mimic_only_drive_is_refused_with_the_reason_for_each_joint():
+    """A car-like robot: its rear wheels follow a virtual centre wheel."""
+    parts = [wheel("virtual", 0.0, x=-0.16), wheel("rl", 0.13, x=-0.16,
+                                                     extra="<mimic joint='virtual_joint'/>"),
+             wheel("rr", -0.13, x=-0.16, extra="<mimic joint='virtual_joint'/>")]
+    with pytest.raises(RobotDescriptionError, match=r"left out: 'virtual_joint' is on the centre "
+                       r"line \(y = 0\): not a drive wheel; 'rl_joint' mimics 'virtual_joint'"):
+        wheels_of(robot(*parts))
+
+
+def test_links_that_no_joint_joins_to_the_base_are_named():
+    text = ("<robot name='r'>" + link("base_link") + link("other") +
+            wheel("l", 0.1) + wheel("r", -0.1, parent="other") + "</robot>")
+    with pytest.raises(RobotDescriptionError, match=r"no joints join 'r_link' to 'base_link': "
+                       r"they hang from different roots \('other', 'base_link'\)"):
+        wheels_of(text)
+
+
+def test_default_speed_limits_never_exceed_what_the_wheel_joints_limits_allow(tmp_path):
+    extra = "<limit effort='1' velocity='2.0'/>"
+    path = tmp_path / "slow.urdf"
+    path.write_text(robot(wheel("l", 0.1, radius=0.05, extra=extra),
+                          wheel("r", -0.1, radius=0.05, extra=extra)))
+    r = robots.load(path)
+    assert r.max_wheel_speed == 2.0 and r.max_linear_velocity == pytest.approx(0.1)
+    assert r.max_angular_velocity == pytest.approx(1.0)        # 2 r ω / b = 2*0.05*2/0.2
+    assert "max_linear_velocity 0.1: the wheels' top speed (2 rad/s) allows no more than the " \
+           "default" in r.assumed
+    assert not any(a.startswith("max_linear_velocity 0.26") for a in r.assumed)
