@@ -298,19 +298,9 @@ def _rep103_diagnosis(urdf: Urdf, base: str, turning: list[Joint]) -> str:
     return ""
 
 
-def find_wheels(urdf: Urdf, base: str, reader: MeshReader | None = None,
-                radius: float | None = None) -> Wheels:
-    """The two drive wheels, found by structure (see the module's text).
-
-    Raises
-    ------
-    RobotDescriptionError
-        No such pair, or several that nothing settles; the message names the file, the
-        joints looked at and what was expected.
-    """
-    notes: list[str] = []
-    turning = [j for j in urdf.joints if _turns_freely(j)]
-    candidates: list[Joint] = []
+def _candidates(urdf: Urdf, base: str, turning: list[Joint], notes: list[str]) -> list[Joint]:
+    """The joints that could be drive wheels; why each other one is not goes into notes."""
+    out: list[Joint] = []
     for j in turning:
         if abs(_axis_in(urdf, j, base)[1]) < _ALONG:
             continue
@@ -325,7 +315,23 @@ def find_wheels(urdf: Urdf, base: str, reader: MeshReader | None = None,
         if abs(_origin_in(urdf, j, base)[1]) < 1e-3:
             notes.append(f"{j.name!r} is on the centre line (y = 0): not a drive wheel")
             continue
-        candidates.append(j)
+        out.append(j)
+    return out
+
+
+def find_wheels(urdf: Urdf, base: str, reader: MeshReader | None = None,
+                radius: float | None = None) -> Wheels:
+    """The two drive wheels, found by structure (see the module's text).
+
+    Raises
+    ------
+    RobotDescriptionError
+        No such pair, or several that nothing settles; the message names the file, the
+        joints looked at and what was expected.
+    """
+    notes: list[str] = []
+    turning = [j for j in urdf.joints if _turns_freely(j)]
+    candidates = _candidates(urdf, base, turning, notes)
     lefts = [j for j in candidates if _origin_in(urdf, j, base)[1] > 0]
     rights = [j for j in candidates if _origin_in(urdf, j, base)[1] < 0]
     if not lefts or not rights:

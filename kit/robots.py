@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 
 from kit import msgs
 from kit.tf import RigidTransform, TransformError, TransformTree
-from kit.urdf import Joint, Link, RobotDescriptionError, Shape, Urdf
+from kit.urdf import Joint, Link, RobotDescriptionError, Shape
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -380,239 +380,6 @@ def _load_toml(path: Path, xacro_args: Mapping[str, str] | None,
     )
 
 
-class _Sourced:
-    """Values taken from a parameter file, else the description, else a stated default;
-    each use of a default is listed."""
-
-    def __init__(self, params: dict[str, Any], where: str) -> None:
-        self.params, self.where = params, where
-        self.found: list[str] = []
-        self.assumed: list[str] = []
-
-    def number(self, section: str, key: str, found: float | None = None, how: str = "",
-               default: float | None = None, why: str = "") -> float:
-        table = self.params.get(section, {})
-        if not isinstance(table, dict):
-            raise RobotDescriptionError(f"{self.where}: [{section}] must be a table")
-        if key in table:
-            value = table[key]
-            if not _is_positive(value):
-                raise RobotDescriptionError(f"{self.where}: [{section}] {key} must be a "
-                                            f"positive number; got {value!r}")
-            return float(value)
-        if found is not None:
-            self.found.append(f"{key} {found:g} from {how}")
-            return float(found)
-        if default is None:
-            raise RobotDescriptionError(f"{self.where}: missing [{section}] {key}")
-        self.assumed.append(f"{key} {default:g}" + (f" ({why})" if why else ""))
-        return float(default)
-
-
-def _sensor(name: str, keys: dict[str, Any], params: dict[str, Any],
-            sourced: _Sourced) -> dict[str, Any]:
-    """One ``sensors`` entry: the parameter file's keys over the found ones over the
-    defaults (listed as assumed)."""
-    given = dict(params.get("sensors", {}).get(name, {}))
-    out = dict(DEFAULTS[name])
-    used_default = [k for k in out if k not in given and k not in keys]
-    out.update(keys)
-    out.update(given)
-    if used_default:
-        sourced.assumed.append(f"{name}: " + ", ".join(f"{k} {out[k]:g}" if isinstance(
-            out[k], float) else f"{k} {out[k]}" for k in used_default) +
-            f" (the kit's {'RPLidar A1' if name == 'lidar' else 'BNO055'} model)")
-    return out
-
-
-def _lidar(model: Urdf, base: str, params: dict[str, Any], scan: dict[str, Any],
-           sourced: _Sourced) -> dict[str, Any]:
-    from kit import robot_structure
-
-    given = params.get("sensors", {}).get("lidar", {})
-    frame, given_by = given.get("frame_id"), "the parameter file"
-    if frame is None and scan and model.has_link(str(scan["frame_id"])):
-        frame, given_by = scan["frame_id"], f"the bag's {scan['topic']}"
-    mount = robot_structure.find_lidar(model, base, None if frame is None else str(frame),
-                                       given_by)
-    keys: dict[str, Any] = {}
-    if mount is None:
-        keys["frame_id"] = base
-        sourced.assumed.append(f"lidar: the URDF has none; one at {base}'s origin")
-    else:
-        keys["frame_id"] = mount.frame
-        x, y, yaw = mount.pose
-        sourced.found.append(f"lidar {mount.frame} at ({x:+.3f}, {y:+.3f}) m, yaw "
-                             f"{math.degrees(yaw):+.1f}°, by {mount.how}")
-        tag = mount.sensor
-        if scan and scan["frame_id"] == mount.frame:
-            keys.update({k: v for k, v in scan.items() if k not in ("frame_id", "topic")})
-            keys["model"] = "bag"
-            beams = round((scan["angle_max"] - scan["angle_min"]) / scan["angle_increment"]) + 1
-            sourced.found.append(
-                f"lidar model from the bag's {scan['topic']}: {beams} beams, "
-                f"{scan.get('scan_rate', 0):.2f} Hz, {scan['range_min']:g}-"
-                f"{scan['range_max']:g} m")
-        elif tag is not None and tag.values.get("samples", 0) >= 2 and \
-                {"min_angle", "max_angle"} <= set(tag.values):
-            v = tag.values
-            keys.update(model=f"gazebo_{tag.type}", angle_min=v["min_angle"],
-                        angle_max=v["max_angle"],
-                        angle_increment=(v["max_angle"] - v["min_angle"]) / (v["samples"] - 1))
-            for key, name in (("range_min", "range_min"), ("range_max", "range_max"),
-                              ("range_noise_std", "noise_std")):
-                if name in v:
-                    keys[key] = v[name]
-            if tag.rate > 0:
-                keys["scan_rate"] = tag.rate
-            sourced.found.append(f"lidar model from the Gazebo sensor {tag.name!r}: "
-                                 f"{int(v['samples'])} beams, {tag.rate:g} Hz, "
-                                 + ", ".join(f"{k} {keys[k]:g}" for k in
-                                             ("range_min", "range_max", "range_noise_std")
-                                             if k in keys))
-    return _sensor("lidar", keys, params, sourced)
-
-
-def _imu(model: Urdf, base: str, params: dict[str, Any],
-         sourced: _Sourced) -> dict[str, Any] | None:
-    from kit import robot_structure
-
-    given = params.get("sensors", {}).get("imu")
-    mount = robot_structure.find_imu(model, base)
-    if given is None and mount is None:
-        return None
-    keys: dict[str, Any] = {}
-    if mount is not None:
-        keys["frame_id"] = mount.frame
-        sourced.found.append(f"IMU {mount.frame} by {mount.how}")
-        if mount.sensor is not None:
-            if mount.sensor.rate > 0:
-                keys["rate"] = mount.sensor.rate
-            keys.update(dict(mount.sensor.values))
-    return _sensor("imu", keys, params, sourced)
-
-
-def _from_urdf(text: str, label: str, source: Path, params: dict[str, Any], where: str,
-               found: list[str], scan: dict[str, Any],
-               package_paths: Mapping[str, str | Path]) -> RobotDescription:
-    """A robot from its own URDF: structure, then the parameter file, then defaults."""
-    from kit import robot_structure, urdf
-
-    model = urdf.parse(text, label)
-    base = str(params.get("base_frame") or robot_structure.base_frame(model))
-    if not model.has_link(base):
-        raise RobotDescriptionError(f"{where}: base_frame {base!r} is no link of {label}")
-    reader = _mesh_reader(source if source.is_file() else None, package_paths)
-    wheel_keys = params.get("wheels", {})
-    radius = wheel_keys.get("radius")
-    if radius is not None and not _is_positive(radius):
-        raise RobotDescriptionError(f"{where}: [wheels] radius must be a positive number; "
-                                    f"got {radius!r}")
-    if "right_joint" in wheel_keys or "left_joint" in wheel_keys:
-        wheels = robot_structure.named_wheels(
-            model, base, str(_require(params, "wheels", "right_joint", Path(where))),
-            str(_require(params, "wheels", "left_joint", Path(where))), reader, radius)
-    else:
-        wheels = robot_structure.find_wheels(model, base, reader, radius)
-    found = [*found, *model.notes, f"base frame {base}",
-             f"drive wheels {wheels.right!r} (right) and {wheels.left!r} (left)",
-             *wheels.notes]
-    plugin = model.drive_plugin
-    for key, mine in (("wheel_separation", wheels.separation),
-                      ("wheel_diameter", 2 * wheels.radius)):
-        try:
-            theirs = float(plugin[key])
-        except (KeyError, ValueError):
-            continue
-        if abs(theirs - mine) > 1e-3:
-            found.append(f"note: the Gazebo drive plugin says {key} {theirs:g} m; the joints "
-                         f"and wheel shapes say {mine:g} m (the kit takes the geometry)")
-    s = _Sourced(params, where)
-    s.found.extend(found)
-    nav2 = "Nav2's stock controller parameters"
-    v_max = s.number("drive", "max_linear_velocity", default=DEFAULTS["drive"][
-        "max_linear_velocity"], why=nav2 + ", DWB max_vel_x")
-    w_max = s.number("drive", "max_angular_velocity", default=DEFAULTS["drive"][
-        "max_angular_velocity"], why=nav2 + ", DWB max_vel_theta")
-    a_max = s.number("drive", "max_linear_acceleration", default=DEFAULTS["drive"][
-        "max_linear_acceleration"], why=nav2 + ", DWB acc_lim_x")
-    limits = [model.joint(n).velocity for n in (wheels.right, wheels.left)]
-    wheel_speed = s.number(
-        "drive", "max_wheel_speed",
-        found=min(limits) if all(math.isfinite(v) for v in limits) else None,
-        how="the wheel joints' <limit velocity>",
-        default=round((v_max + w_max * wheels.separation / 2) / wheels.radius, 9),
-        why="enough for the top linear and angular speeds together")
-    drive_given = params.get("drive", {})
-    top_v = round(wheel_speed * wheels.radius, 9)
-    top_w = round(2 * wheel_speed * wheels.radius / wheels.separation, 9)
-    if "max_linear_velocity" not in drive_given and v_max > top_v:
-        v_max = top_v
-        s.assumed = [a for a in s.assumed if not a.startswith("max_linear_velocity ")]
-        s.assumed.append(f"max_linear_velocity {v_max:g}: the wheels' top speed "
-                         f"({wheel_speed:g} rad/s) allows no more than the default")
-    if "max_angular_velocity" not in drive_given and w_max > top_w:
-        w_max = top_w
-        s.assumed = [a for a in s.assumed if not a.startswith("max_angular_velocity ")]
-        s.assumed.append(f"max_angular_velocity {w_max:g}: the wheels' top speed "
-                         f"({wheel_speed:g} rad/s) allows no more than the default")
-    gear = s.number("drive", "gear_ratio", default=DEFAULTS["drive"]["gear_ratio"],
-                    why="encoder counts taken at the wheel")
-    resolution = s.number("drive", "encoder_resolution", default=DEFAULTS["drive"][
-        "encoder_resolution"], why="a 12-bit encoder on the wheel")
-    bits = s.number("drive", "counter_bits", default=DEFAULTS["drive"]["counter_bits"])
-    links_mass = float(sum(link.mass for link in model.links))
-    mass = s.number("mass", "mass", found=links_mass if links_mass > 0 else None,
-                    how="the links' <inertial> masses", default=DEFAULTS["mass"]["mass"],
-                    why="the URDF gives no masses") if "mass" in params else (
-        links_mass if links_mass > 0 else s.number("mass", "mass", default=DEFAULTS["mass"][
-            "mass"], why="the URDF gives no masses"))
-    k_right = s.number("odometry", "k_right", default=DEFAULTS["odometry"]["k_right"],
-                       why="rubber wheels on an indoor floor, as the Uiabot's")
-    k_left = s.number("odometry", "k_left", default=DEFAULTS["odometry"]["k_left"])
-    if "footprint" in params:
-        outline = _footprint(params, where)
-    else:
-        outline, how = robot_structure.footprint(model, base, wheels, reader)
-        (s.assumed if how.startswith("assumed") else s.found).append(
-            f"footprint {np.ptp(outline[:, 0]):.3f} x {np.ptp(outline[:, 1]):.3f} m from "
-            f"{how}" if not how.startswith("assumed") else f"footprint: {how[9:]}")
-    sensors: dict[str, Any] = {name: dict(value) for name, value in
-                               params.get("sensors", {}).items() if isinstance(value, dict)}
-    sensors["lidar"] = _lidar(model, base, params, scan, s)
-    imu = _imu(model, base, params, s)
-    if imu is not None:
-        sensors["imu"] = imu
-    name = str(params.get("name") or model.name or source.stem)
-    return RobotDescription(
-        name=name,
-        description=str(params.get("description", f"robot {model.name!r} from {label}")),
-        source=source,
-        links=model.links,
-        joints=model.joints,
-        wheel_radius=wheels.radius,
-        wheel_separation=wheels.separation,
-        gear_ratio=gear,
-        encoder_resolution=int(resolution),
-        counter_bits=int(bits),
-        max_wheel_speed=wheel_speed,
-        max_linear_velocity=v_max,
-        max_angular_velocity=w_max,
-        max_linear_acceleration=a_max,
-        cruise_velocity=_cruise_velocity(params, where, v_max),
-        mass=mass,
-        footprint=outline,
-        odometry_k=(k_right, k_left),
-        sensors=MappingProxyType({k: MappingProxyType(v) for k, v in sensors.items()}),
-        parameters=MappingProxyType(params),
-        base_frame=base,
-        wheel_joints=(wheels.right, wheels.left),
-        axle=wheels.axle,
-        found=tuple(s.found),
-        assumed=tuple(s.assumed),
-    )
-
-
 def load(name_or_path: str | Path, *, parameters: str | Path | Mapping[str, Any] | None = None,
          xacro_args: Mapping[str, str] | None = None,
          package_paths: Mapping[str, str | Path] | None = None,
@@ -646,7 +413,7 @@ def load(name_or_path: str | Path, *, parameters: str | Path | Mapping[str, Any]
     >>> robot.wheel_radius, robot.wheel_separation
     (0.05, 0.361)
     """
-    from kit import description_files
+    from kit import description_files, robot_from_urdf
 
     kind, path = _kind(name_or_path)
     if kind == "toml":
@@ -667,10 +434,11 @@ def load(name_or_path: str | Path, *, parameters: str | Path | Mapping[str, Any]
     args, packages = _xacro_settings(params, Path(where), xacro_args, package_paths)
     if kind == "urdf":
         text, notes = description_files.read_urdf(path, args, packages)
-        return _from_urdf(text, str(path), path, params, where, list(notes), {}, packages)
+        return robot_from_urdf.build(text, str(path), path, params, where, list(notes), {},
+                                     packages)
     if args:
         raise RobotDescriptionError(f"{path}: a bag's URDF is already expanded; it takes no "
                                     f"xacro arguments")
     text, scan = description_files.read_bag_description(path, topic)
-    return _from_urdf(text, f"{path} {topic}", path, params, where,
-                      [f"URDF from the bag's {topic}"], scan, packages)
+    return robot_from_urdf.build(text, f"{path} {topic}", path, params, where,
+                                 [f"URDF from the bag's {topic}"], scan, packages)
