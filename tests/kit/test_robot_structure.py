@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from kit import robot_structure, robots, urdf
 from kit.urdf import RobotDescriptionError
@@ -347,3 +349,61 @@ def test_default_speed_limits_never_exceed_what_the_wheel_joints_limits_allow(tm
     assert "max_linear_velocity 0.1: the wheels' top speed (2 rad/s) allows no more than the " \
            "default" in r.assumed
     assert not any(a.startswith("max_linear_velocity 0.26") for a in r.assumed)
+
+
+AXES = {  # (axis, joint rpy, cylinder rpy): four ways URDFs write a wheel turning about y
+    "y": ("0 1 0", "0 0 0", f"{HALF_PI} 0 0"),
+    "-y": ("0 -1 0", "0 0 0", f"{HALF_PI} 0 0"),
+    "z rolled -pi/2": ("0 0 1", f"{-HALF_PI} 0 0", "0 0 0"),
+    "-z rolled +pi/2": ("0 0 -1", f"{HALF_PI} 0 0", "0 0 0"),
+}
+
+
+@settings(max_examples=40, deadline=None)
+@given(separation=st.floats(0.1, 1.2), radius=st.floats(0.02, 0.3), axle_x=st.floats(-0.4, 0.4),
+       left_axis=st.sampled_from(sorted(AXES)), right_axis=st.sampled_from(sorted(AXES)),
+       footprint_root=st.booleans(), suspension=st.booleans(), casters=st.integers(0, 4),
+       followers=st.booleans())
+def test_any_differential_drive_written_any_usual_way_gives_back_its_geometry(
+        separation, radius, axle_x, left_axis, right_axis, footprint_root, suspension, casters,
+        followers):
+    """A generated robot — its wheels' axes written four ways, base_footprint or base_link at
+    the root, wheels on prismatic suspensions or not, swivel casters, mimic followers — gives
+    back the radius, separation and axle it was built with."""
+    parts = []
+    for side, y, axis_key in (("left", separation / 2, left_axis),
+                              ("right", -separation / 2, right_axis)):
+        axis, rpy, shape_rpy = AXES[axis_key]
+        parent = "base_link"
+        if suspension:
+            parts.append(link(f"drop_{side}") + joint(
+                f"drop_{side}_joint", "prismatic", "base_link", f"drop_{side}",
+                f"{axle_x} {y} 0.02", axis="0 0 1",
+                extra="<limit lower='-0.02' upper='0.02' effort='1' velocity='1'/>"))
+            parent, x, y_local = f"drop_{side}", 0.0, 0.0
+        else:
+            x, y_local = axle_x, y
+        parts.append(wheel(f"{side}_drive", y_local, x=x, radius=radius, parent=parent,
+                           axis=axis, rpy=rpy, shape_rpy=shape_rpy))
+        if followers:
+            parts.append(wheel(f"{side}_follower", y, x=axle_x + 0.5, radius=radius,
+                               extra=f"<mimic joint='{side}_drive_joint'/>"))
+    for i in range(casters):
+        cx, cy = (0.5 if i % 2 else -0.5), (0.2 if i < 2 else -0.2)
+        parts.append(link(f"swivel{i}") + joint(f"swivel{i}_joint", "continuous", "base_link",
+                                                f"swivel{i}", f"{cx} {cy} -0.05", axis="0 0 1"))
+        parts.append(wheel(f"caster{i}", 0.0, x=-0.02, radius=0.02, parent=f"swivel{i}"))
+    if footprint_root:
+        text = ("<robot name='r'><link name='base_footprint'/>" +
+                link("base_link", "<box size='0.4 0.3 0.1'/>") +
+                joint("fp", "fixed", "base_footprint", "base_link", f"0 0 {radius}") +
+                "".join(parts) + "</robot>")
+    else:
+        text = robot(*parts)
+    model = urdf.parse(text, "generated.urdf")
+    assert robot_structure.base_frame(model) == "base_link"
+    w = robot_structure.find_wheels(model, "base_link")
+    assert (w.right, w.left) == ("right_drive_joint", "left_drive_joint")
+    assert w.radius == pytest.approx(radius, abs=1e-9)
+    assert w.separation == pytest.approx(separation, abs=1e-9)
+    assert w.axle == pytest.approx([axle_x, 0.0], abs=1e-9)
