@@ -183,20 +183,25 @@ def _depth(shape: Shape, T: FloatArray, reader: MeshReader | None) -> float:
 
 def _wheel_radius(urdf: Urdf, joint: Joint, base: str,
                   reader: MeshReader | None) -> tuple[float, str]:
+    """The wheel's rolling radius: over the shapes of its link and the links fixed to it (a
+    tyre may be a link of its own), the farthest reach below the axle."""
     link = urdf.link(joint.child)
+    rigid = [urdf.link(name) for name in _rigid_links(urdf, link.name)]
     axle = _origin_in(urdf, joint, base)
     axis = _axis_in(urdf, joint, base)
-    for kind, shapes in (("collision", link.collision), ("visual", link.visual)):
+    for kind in ("collision", "visual"):
+        shapes = [(part.name, shape) for part in rigid
+                  for shape in (part.collision if kind == "collision" else part.visual)]
         if not shapes:
             continue
         radii: list[float] = []
         words: list[str] = []
         problems: list[str] = []
-        for i, shape in enumerate(shapes):
-            T = urdf.transform(link.name, base) @ shape.origin
+        for i, (owner, shape) in enumerate(shapes):
+            T = urdf.transform(owner, base) @ shape.origin
             offset = T[:3, 3] - axle
             off_axle = float(np.linalg.norm(offset - (offset @ axis) * axis))
-            label = f"{kind} {shape.kind}" + (f" {i}" if len(shapes) > 1 else "")
+            label = f"{owner}'s {kind} {shape.kind}" + (f" {i}" if len(shapes) > 1 else "")
             if shape.kind == "cylinder" and abs(float(T[:3, 2] @ axis)) >= _ALONG:
                 radii.append(shape.dimensions[0] + off_axle)
             elif shape.kind == "sphere":
@@ -208,9 +213,8 @@ def _wheel_radius(urdf: Urdf, joint: Joint, base: str,
                     problems.append(str(exc))
                     continue
                 if shape.kind == "cylinder":
-                    label = (f"{kind} cylinder {i} lying across the axle (radius "
-                             f"{shape.dimensions[0]:g}, length {shape.dimensions[1]:g}): its "
-                             f"depth below the axle")
+                    label += (f" lying across the axle (radius {shape.dimensions[0]:g}, length "
+                              f"{shape.dimensions[1]:g}): its depth below the axle")
                 else:
                     label += "'s depth below the axle"
             words.append(label)
@@ -220,7 +224,7 @@ def _wheel_radius(urdf: Urdf, joint: Joint, base: str,
                 raise RobotDescriptionError(
                     f"{urdf.source}: the {kind} geometry of wheel link {link.name!r} does not "
                     f"reach below its axle (joint {joint.name!r}); expected a wheel around it")
-            return radius, f"{link.name}'s " + ", ".join(words)
+            return radius, ", ".join(words)
         raise RobotDescriptionError(
             f"{urdf.source}: wheel link {link.name!r} (joint {joint.name!r}) has only meshes "
             f"as {kind} geometry, and they cannot be read: {'; '.join(problems)}; or give the "
@@ -242,7 +246,7 @@ def _pair(urdf: Urdf, base: str, right: Joint, left: Joint, reader: MeshReader |
                          f"mean taken")
         radius = round((rr + rl) / 2, 9)
         notes.append(f"radius {radius:g} m from {how_l}" + (
-            "" if how_l.split("'s ", 1)[-1] == how_r.split("'s ", 1)[-1] else f" and {how_r}"))
+            "" if how_l.split("'s ", 1)[-1] == how_r.split("'s ", 1)[-1] else f"; {how_r}"))
     else:
         notes.append(f"radius {radius:g} m from the parameter file")
     if abs(pr[0] - pl[0]) > 1e-3:

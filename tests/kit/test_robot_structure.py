@@ -230,6 +230,15 @@ def test_a_wheel_with_visual_geometry_only_takes_its_radius_from_it():
     assert w.radius == 0.06 and any("l_link's visual cylinder" in n for n in w.notes)
 
 
+def test_a_tyre_fixed_to_the_wheel_link_gives_the_radius():
+    tyre = (link("l_tyre", "<cylinder radius='0.07' length='0.02'/>", rpy=f"{HALF_PI} 0 0") +
+            joint("l_tyre_joint", "fixed", "l_link", "l_tyre"))
+    text = robot(link("l_link"), joint("l_joint", "continuous", "base_link", "l_link",
+                                       "0 0.1 0"), tyre, wheel("r", -0.1, radius=0.07))
+    w = wheels_of(text)
+    assert w.radius == 0.07 and any("l_tyre's collision cylinder" in n for n in w.notes)
+
+
 def test_a_wheel_without_geometry_is_an_error_naming_the_link_and_the_way_out():
     text = robot(link("l_link"), joint("l_joint", "continuous", "base_link", "l_link",
                                        "0 0.1 0"), wheel("r", -0.1))
