@@ -416,7 +416,8 @@ def footprint(urdf: Urdf, base: str, wheels: Wheels,
     from scipy.spatial import ConvexHull, QhullError
 
     body = _rigid_links(urdf, base)
-    links = [*body, urdf.joint(wheels.right).child, urdf.joint(wheels.left).child]
+    links = [*body, *_rigid_links(urdf, urdf.joint(wheels.right).child),
+             *_rigid_links(urdf, urdf.joint(wheels.left).child)]
     kind = "collision" if any(urdf.link(n).collision for n in body) else "visual"
     points: list[FloatArray] = []
     skipped: list[str] = []
