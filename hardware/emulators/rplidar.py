@@ -22,9 +22,10 @@ The head behaves as the real A1's does in the captured streams
 
 Ranges come from the backend's lidar: each simulated scan (counter-clockwise beams, the
 turn's motion distortion included) is sent as one turn of clockwise nodes, each beam's
-bearing exact and its place in the turn where the head took it. On its own the emulator
-stands in an 8 m × 8 m room that returns no echo from about a third of its samples, as the
-real capture's room (3,703 of 10,436 nodes, 35.5 %): a glass window the beam passes
+bearing exact and its place in the turn where the head took it, one sample time (the
+simulated lidar's beam time, which ``GET_SAMPLERATE`` then reports) after the other. On its
+own the emulator stands in an 8 m × 8 m room that returns no echo from about a third of its
+samples, as the real capture's room (3,703 of 10,436 nodes, 35.5 %): a glass window the beam passes
 through (190°–250° clockwise, no return), an open door onto space beyond the A1's 12 m
 (100°–130°), and a dark wall that returns too little light at 60 % of its samples
 (280°–340°) — :data:`ROOM` — so a driver meets the no-return nodes (quality 0, distance 0)
@@ -104,6 +105,14 @@ def triangulation_offset_deg(distance_mm: np.ndarray) -> np.ndarray:
     return np.where(d > 0, np.degrees(np.arctan(a * (b - safe) / (b * safe))), 0.0)
 
 
+def _simulated_lidar(backend: Any) -> Any:
+    """The simulated lidar behind a ``SimBackend`` (None for any other backend)."""
+    try:
+        return backend.sim.robots[backend.robot].lidar
+    except (AttributeError, IndexError, TypeError):
+        return None
+
+
 class RPLidarEmulator(Device):
     name = "rplidar"
     baudrate = 115200
@@ -136,6 +145,11 @@ class RPLidarEmulator(Device):
         self.turns_sent = 0
         if backend is not None and hasattr(backend, "subscribe"):
             backend.subscribe("scan", self._on_scan)
+            lidar = _simulated_lidar(backend)
+            if lidar is not None and lidar.time_increment > 0:
+                # the simulated head's own timing: its beams one sample each, its turn rate
+                self.sample_time = float(lidar.time_increment)
+                self.turns_per_second = float(lidar.rate)
 
     # ------------------------------------------------------------------ requests
     def receive(self, data: bytes, now: float) -> None:
@@ -290,11 +304,10 @@ class RPLidarEmulator(Device):
                 self._pending.reverse()
                 self.turns_sent += 1
                 self.event("turn", self._next_node)  # its first sample's time
-            batch = bytearray()
-            t = self._next_node
             while self._pending and self._next_node <= now:
-                batch += self._pending.pop()
+                # each node leaves as it is measured (never before: after a stall of the
+                # emulator its nodes come late, as a real device's would not)
+                self.send(self._pending.pop(), self._next_node, reply=False)
                 self._next_node += self.sample_time
-            self.send(bytes(batch), t, reply=False)
             if now - self._next_node > 1.0:
                 self._next_node = now  # nobody read for a long time: do not backlog

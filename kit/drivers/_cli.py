@@ -20,6 +20,7 @@ import argparse
 import math
 import queue
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -62,9 +63,11 @@ _TOPICS = {"rplidar": ["/scan"], "lms2xx": ["/scan"], "bno055": ["/imu"], "os500
 
 def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "uiabot",
            duration: float = math.inf, log: Any = print,
-           on_message: Callable[[str, int, Any], None] | None = None) -> dict[str, int]:
+           on_message: Callable[[str, int, Any], None] | None = None,
+           stop: threading.Event | None = None) -> dict[str, int]:
     """Record ``(device, port, baud)`` sources into a new MCAP bag at ``out`` for
-    ``duration`` seconds (or until Ctrl-C); returns the messages written per topic.
+    ``duration`` seconds (or until Ctrl-C, or until ``stop`` is set); returns the messages
+    written per topic.
 
     Every message goes through one place, in the order written: the bag, the counts, and
     ``on_message(topic, time_ns, message)`` if given (a live view). A device whose port
@@ -88,12 +91,18 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
         raise FileExistsError(f"{out} exists; a bag is written to a new folder")
     description = load(robot)
     sources = []
+    readers: list[Any] = []
+    q: queue.Queue[Any] = queue.Queue()
     try:
-        for device, port, baud in specs:
-            sources.append(open_source(device, port, description, baud))
-            log(f"{device} on {port}: {sources[-1].description}")
-        renames = _topics([s.device for s in sources], [_TOPICS[s.device] for s in sources])
-        q: queue.Queue[Any] = queue.Queue()
+        # each device is read from the moment it starts (a lidar streams at once: left
+        # unread while the others start, its port would overflow)
+        renames = _topics([d for d, _, _ in specs], [_TOPICS[d] for d, _, _ in specs])
+        for (device, port, baud), names in zip(specs, renames, strict=True):
+            src = open_source(device, port, description, baud)
+            sources.append(src)
+            log(f"{device} on {port}: {src.description}")
+            readers.append(Reader(src.device, _renamed(src.read, names), q, src.period,
+                                  on_error=_failed(src.device, log), reopen=src.reopen).start())
         counts: dict[str, int] = {}
         first: dict[str, int] = {}
         last: dict[str, int] = {}
@@ -114,17 +123,6 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
             stamp = msgs.Time.from_sec(start)
             write("/tf_static", stamp.to_nsec(),
                   msgs.TFMessage(description.static_transforms(stamp)))
-
-            def failed(name: str) -> Callable[[BaseException], None]:
-                return lambda exc: log(f"{name}: {exc}; reopening it when it is back")
-
-            readers = [Reader(src.device, _renamed(src.read, names), q, src.period,
-                              on_error=failed(src.device), reopen=src.reopen)
-                       for src, names in zip(sources, renames, strict=True)]
-            # each reader's queue is drained in stamp order within a batch, so topics that
-            # share a clock (odom, tf) stay in time order in the bag
-            for r in readers:
-                r.start()
             end = time.monotonic() + duration
 
             def drain(wait: float) -> None:
@@ -136,7 +134,8 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
                     pass
 
             try:
-                while time.monotonic() < end and any(r.alive for r in readers):
+                while time.monotonic() < end and any(r.alive for r in readers) and \
+                        not (stop is not None and stop.is_set()):
                     drain(0.05)
             except KeyboardInterrupt:
                 log("stopped (Ctrl-C)")
@@ -167,8 +166,14 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
             f"messages' stamps)")
         return counts
     finally:
+        for r in readers:
+            r.stop()
         for s in sources:
             s.close()
+
+
+def _failed(name: str, log: Any) -> Callable[[BaseException], None]:
+    return lambda exc: log(f"{name}: {exc}; reopening it when it is back")
 
 
 def _renamed(read: Any, names: dict[str, str]) -> Any:

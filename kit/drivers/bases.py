@@ -145,6 +145,7 @@ class _Safe:
         self.hold = hold
         self.keep_alive = (clock is time.monotonic) if keep_alive is None else keep_alive
         self.ready = False
+        self._resume = False
         self.held: tuple[float, float] = (0.0, 0.0)
         self._commanded_at = 0.0
         self._keeper: KeepAlive | None = None
@@ -433,14 +434,15 @@ class UiabotBase(_Safe):
         within the watchdog's time), the base halts (zero speed) and stays ready; otherwise
         the watchdog stopped them and :meth:`bring_up` is needed again. Raises
         :class:`~kit.drivers.errors.PortError` while the ODrive is not back."""
-        was_ready = self.ready
+        self._resume = self._resume or self.ready  # (kept while the ODrive is not back)
         self._disarmed()
         self.odrive.reopen()
         od = self.odrive
-        if was_ready and all(od.axis_state(a) == CLOSED_LOOP_CONTROL and not od.axis_error(a)
-                             for a in (0, 1)):
+        if self._resume and all(od.axis_state(a) == CLOSED_LOOP_CONTROL and
+                                not od.axis_error(a) for a in (0, 1)):
             self._armed()
             self.halt()
+        self._resume = False
         self._restart_odometry()
 
 
@@ -571,7 +573,7 @@ class IgvBase(_Safe):
         """Open the bus again after the port failed, on the same object. If both bridges are
         still enabled without a comms error (back within the watchdog's time), the base
         halts (zero speed) and stays ready; otherwise :meth:`start` is needed again."""
-        was_ready = self.ready
+        self._resume = self._resume or self.ready  # (kept while the drives are not back)
         self._disarmed()
         self.link.reopen()
         healthy = True
@@ -579,7 +581,8 @@ class IgvBase(_Safe):
             drive.connect(clear=drive is self.right)
             bridge, _, system = drive.status()
             healthy = healthy and bool(bridge & 1) and not system & COMMS_ERROR
-        if was_ready and healthy:
+        if self._resume and healthy:
             self._armed()
             self.halt()
+        self._resume = False
         self._restart_odometry()

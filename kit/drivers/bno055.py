@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from kit import msgs
-from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError
+from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError, failed_twice
 from kit.drivers.port import Link
 from kit.geometry import wrap_angle
 
@@ -157,6 +157,7 @@ class BNO055:
         self.frame_id = frame_id
         self.retried = 0
         self.mode: str | None = None
+        self._wanted: str | None = None
         self.last_exchange = (0.0, 0.0)
 
     # ------------------------------------------------------------------ transactions
@@ -234,10 +235,30 @@ class BNO055:
         self.write_register(OPR_MODE, value, f"set mode {mode}")
         self.link.sleep(0.02 if value == 0 else 0.01)
 
+    def connect(self, pause: float = 0.05) -> int:
+        """Read CHIP_ID (the spec's "retry once: the first command after power-up can
+        fail"): a frame an earlier program left unfinished in the chip's receiver merges
+        with the first request (whose answer can even be a refusal of the merged frame), so
+        a first exchange that fails in any way is tried once more after ``pause`` seconds of
+        silence, longer than the chip's receive character time-out, which abandons any
+        partial frame. Returns the chip id."""
+        try:
+            return self.read_registers(CHIP_ID, 1, "read chip id")[0]
+        except (DeviceTimeout, DeviceError, ProtocolError) as exc:
+            if self.link.failure is not None:
+                raise
+            first = exc
+        self.link.sleep(pause)
+        try:
+            return self.read_registers(CHIP_ID, 1, "read chip id")[0]
+        except (DeviceTimeout, DeviceError, ProtocolError) as exc:
+            raise failed_twice(exc, first) from None
+
     def begin(self, mode: str = "NDOF", fusion_timeout: float = 1.0) -> None:
         """Chip id → CONFIG → normal power, page 0, default units → ``mode`` → fusion on."""
         self.mode = None
-        chip = self.read_registers(CHIP_ID, 1, "read chip id")[0]
+        self._wanted = mode
+        chip = self.connect()
         if chip != 0xA0:
             raise ProtocolError(DEVICE, f"chip id 0x{chip:02X} is not a BNO055's 0xA0")
         self.set_mode("CONFIG")
@@ -259,8 +280,8 @@ class BNO055:
         """Open the port again after it failed (the chip unplugged and back, so reset to
         CONFIG mode): :meth:`begin` again in the mode it was in."""
         self.link.reopen()
-        if self.mode is not None:
-            self.begin(self.mode)
+        if self._wanted is not None:
+            self.begin(self._wanted)
 
     # ------------------------------------------------------------------ readings
     def calibration(self) -> Calibration:

@@ -27,6 +27,7 @@ from kit import msgs
 from kit.drivers.checksums import nmea_checksum
 from kit.drivers.errors import ChecksumError, DeviceTimeout, ProtocolError
 from kit.drivers.port import Link
+from kit.drivers.timing import SampleClock
 from kit.geometry import wrap_angle
 
 __all__ = ["DEVICE", "FIELDS", "CompassReading", "LineSplitter", "Os5000", "heading_to_yaw",
@@ -241,12 +242,20 @@ class Os5000:
         self.fields = fields
         self.lines = LineSplitter()
         self.rejected = 0
+        self.rate: float | None = None
+        """sentences per second, once :meth:`set_rate` set it: then lines are dated by the
+        compass's own pace (:class:`~kit.drivers.timing.SampleClock`)."""
         self._pending: list[tuple[str, float]] = []
         self._last_stamp = -float("inf")
+        self._pace: SampleClock | None = None
+        self._lines_seen = 0
 
     def set_rate(self, hz: int) -> None:
-        """``<ESC>R<n><CR>``: sentences per second (0 stops the stream)."""
+        """``<ESC>R<n><CR>``: sentences per second (0 stops the stream; a negative n is n
+        seconds per sentence)."""
         self._command("R", hz)
+        self.rate = float(hz) if hz > 0 else (1.0 / -hz if hz < 0 else None)
+        self._pace = None
 
     def _command(self, letter: str, value: int | None = None) -> None:
         text = "\x1b" + letter + ("" if value is None else f"{int(value)}\r")
@@ -272,8 +281,10 @@ class Os5000:
 
     def read_stamped(self) -> tuple[CompassReading, float]:
         """The next valid reading and when the compass sent its line [s, stamping clock]:
-        the arrival of what came with it, less the time the bytes from the line's first one
-        on took at the link's rate (never closer to the line before than that line took)."""
+        by the compass's own pace once :meth:`set_rate` has set it (lines counted, their
+        arrivals bounding when the count began); otherwise the arrival of what came with it
+        less the time the bytes from the line's first one on took at the link's rate. Never
+        closer to the line before than that line took to send."""
         deadline = self.clock() + self.timeout
         byte_time = 10.0 / self.link.baudrate
         while True:
@@ -291,8 +302,18 @@ class Os5000:
                 raise DeviceTimeout(DEVICE, f"no valid sentence within {self.timeout:g} s")
             data = self.link.read_some("read")
             arrived = self.link.stamp()
-            self._pending.extend((line, arrived - after * byte_time)
-                                 for line, after in self.lines.feed_placed(data))
+            placed = self.lines.feed_placed(data)
+            if self.rate is None or not placed:
+                self._pending.extend((line, arrived - after * byte_time) for line, after in placed)
+                continue
+            if self._pace is None:
+                self._pace = SampleClock(1.0 / self.rate)
+            first = self._lines_seen
+            self._lines_seen += len(placed)
+            after = placed[-1][1]  # the last line's first byte came this long before:
+            self._pace.observe(self._lines_seen, arrived - after * byte_time)
+            self._pending.extend((line, self._pace.time_of(first + k))
+                                 for k, (line, _) in enumerate(placed))
 
     def reopen(self) -> None:
         """Open the port again after it failed (the compass unplugged and back)."""

@@ -88,6 +88,11 @@ def _errno_of(exc: BaseException) -> int | None:
 def _port_failure(device: str, what: str, exc: BaseException) -> PortError:
     number = _errno_of(exc)
     hint = _HINTS.get(number, "") if number is not None else ""
+    if "returned no data" in str(exc):
+        # pyserial's words for a hung-up port (the other side gone); the port being ours
+        # alone, the "multiple access" it also suggests is not the cause
+        return PortError(device, f"{what}: the port failed (disconnected: it reports data "
+                                 f"but has none): the device was unplugged or lost power")
     text = f"{what}: the port failed ({exc})" + (f": {hint}" if hint else "")
     return PortError(device, text, number)
 

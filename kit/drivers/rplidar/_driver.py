@@ -107,6 +107,7 @@ class RPLidar:
         self._last_stamp = -float("inf")
         self._ready: list[Turn] = []
         self._pending = bytearray()
+        self._resume = (False, False)
 
     def _motor(self, run: bool) -> None:
         try:
@@ -260,13 +261,16 @@ class RPLidar:
     def reopen(self) -> None:
         """Open the port again after it failed (the lidar unplugged and back, so stopped)
         and scan again as before (standard or express)."""
-        scanning, express = self.scanning, self.express
+        if self.scanning:  # (kept across tries while the lidar is not back)
+            self._resume = (True, self.express)
         self.scanning = False
         self.link.reopen()
+        scanning, express = self._resume
         if scanning:
             self.start()
             if express:
                 self.start_express()
+        self._resume = (False, False)
 
     def read_turn(self) -> Turn:
         """The next complete, plausible turn (:class:`Turn`, its times those its nodes were

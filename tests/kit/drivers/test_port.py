@@ -111,3 +111,47 @@ def test_stamps_are_wall_clock_on_a_real_port_and_logical_on_an_emulator():
     # the middle of the exchange that read it, on the logical clock
     assert m.header.stamp.to_sec() == pytest.approx(0.5 * sum(imu.last_exchange), abs=1e-9)
     assert imu.last_exchange[0] < m.header.stamp.to_sec() < clock.now < 10
+
+
+def test_a_second_opener_is_told_the_port_is_busy_and_by_whom():
+    """Ports are ours alone: a second driver (here, in this program) gets ``busy`` naming
+    the holder; the first keeps working, its input untouched by the second's attempt."""
+    from hardware.emulators.odrive import ODriveEmulator
+
+    with PtyServer(ODriveEmulator(vbus_voltage=24.0)) as server:
+        first = odrive.ODrive(server.path)
+        assert first.vbus_voltage() == pytest.approx(24.0)
+        with pytest.raises(PortError, match=rf"ODrive: cannot open '{server.path}' at 115200 "
+                                            rf"baud: the port is busy \(held by PID "
+                                            rf"{os.getpid()} \(this program\)\)") as info:
+            odrive.ODrive(server.path)
+        assert info.value.errno == errno.EAGAIN
+        with pytest.raises(PortError, match=r"RPLidar: .* busy \(held by PID"):
+            from kit.drivers import rplidar
+
+            rplidar.RPLidar(server.path)
+        assert first.vbus_voltage() == pytest.approx(24.0)  # the holder goes on
+        first.close()
+        second = odrive.ODrive(server.path)  # free again once closed
+        assert second.vbus_voltage() == pytest.approx(24.0)
+        second.close()
+
+
+def test_a_port_held_by_another_program_names_that_process():
+    import subprocess
+    import sys
+
+    from hardware.emulators.odrive import ODriveEmulator
+
+    holder = "import sys, time\nfrom kit.drivers import odrive\nd = odrive.ODrive(sys.argv[1])" \
+             "\nprint(d.vbus_voltage(), flush=True)\ntime.sleep(600)\n"
+    with PtyServer(ODriveEmulator(vbus_voltage=24.0)) as server:
+        proc = subprocess.Popen([sys.executable, "-c", holder, server.path],
+                                stdout=subprocess.PIPE, text=True)
+        try:
+            assert float(proc.stdout.readline()) == pytest.approx(24.0)
+            with pytest.raises(PortError, match=rf"busy \(held by PID {proc.pid} \(python"):
+                odrive.ODrive(server.path)
+        finally:
+            proc.kill()
+            proc.wait(30)
