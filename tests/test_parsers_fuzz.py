@@ -211,3 +211,17 @@ def test_a_dpralte_reply_cut_after_its_header_never_takes_the_next_frame(words, 
     assert all(any(r == k for r in it) for k in key)  # each whole frame, in order
     assert all((f.address, f.command, f.a, f.words) in key for f in frames
                if not f.alternatives)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=60), st.binary(max_size=20),
+       st.sampled_from(["number", "feedback", "reply", "info"]))
+def test_odrive_lines_of_any_bytes_are_judged_without_failing(run, before, form):
+    """Whatever bytes come, a run is judged (a reply, or refused with a reason), never an
+    exception; a reply taken is there in the bytes as they came."""
+    for line, prior in odrive.ReplySplitter().feed(before + run + b"\r\n"):
+        text, why = odrive.judge_line(line, prior, form)
+        assert why in ("ok", "no reply", "ambiguous")
+        assert (text is None) == (why != "ok")
+        if text is not None:
+            assert text.encode("ascii") in line

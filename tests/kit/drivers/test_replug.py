@@ -188,3 +188,14 @@ def wait_for(condition: Callable[[], bool], what: str, limit: float = 60.0) -> N
             raise AssertionError(f"{what} never came")
         time.sleep(0.01)
 
+
+
+def test_a_bag_note_must_be_text(tmp_path):
+    from kit.bag import BagWriter
+
+    with BagWriter(tmp_path / "b") as bag:
+        with pytest.raises(TypeError, match="custom data is str: str; got str: int"):
+            bag.custom_data("kit_record.gaps", 3)
+        bag.custom_data("kit_record.gaps", "none")
+    metadata = yaml.safe_load(Path(tmp_path, "b", "metadata.yaml").read_text())
+    assert metadata["rosbag2_bagfile_information"]["custom_data"] == {"kit_record.gaps": "none"}
