@@ -311,6 +311,13 @@ def test_uiabot_bring_up_on_the_logical_clock():
     expected = 0.5 / base.robot.wheel_radius * 20 / (2 * math.pi)
     assert right == pytest.approx(expected, rel=1e-6) and left == pytest.approx(-expected,
                                                                                 rel=1e-6)
+    # the odometry started from the encoders at the end of the bring-up: the first
+    # update() after drive() already gives the motion since (0.5 m/s for 0.2 s)
+    driving = clock.now
+    clock.sleep(0.2)
+    odom = base.update()
+    moved = 0.5 * (odom.header.stamp.to_sec() - driving)
+    assert odom.pose.pose.position.x == pytest.approx(moved, abs=2e-3) and moved > 0.09
 
 
 @pytest.mark.parametrize(("device", "step", "message"), [
@@ -449,7 +456,8 @@ def test_rplidar_emulator_answers_the_specs_requests():
     got = exchange(device, h("A5 20"), after=0.05)
     assert got[:7] == h("A5 5A 05 00 00 40 81")
     nodes = rplidar.NodeParser().feed(got[7:])
-    assert 85 <= len(nodes) <= 101 and nodes[0].start  # 2000 samples/s
+    # 2000 samples/s: 100 measured in 50 ms, each sent once measured (5 bytes: 0.43 ms)
+    assert 85 <= len(nodes) <= 100 and nodes[0].start
     device.feed(h("A5 25"), 0.06)
     device.read(0.06)
     assert device.read(1.0) == b""  # STOP ends the stream

@@ -304,10 +304,15 @@ class RPLidarEmulator(Device):
                 self._pending.reverse()
                 self.turns_sent += 1
                 self.event("turn", self._next_node)  # its first sample's time
+            node_time = self.byte_time(5)
             while self._pending and self._next_node <= now:
-                # each node leaves as it is measured (never before: after a stall of the
-                # emulator its nodes come late, as a real device's would not)
-                self.send(self._pending.pop(), self._next_node, reply=False)
+                # each node leaves as it is measured, never before
+                if self.faults.any:
+                    self.send(self._pending.pop(), self._next_node, reply=False)
+                else:  # (the same, without the fault injector's per-call work)
+                    start = max(self._next_node, self._line_free)
+                    self._line_free = start + node_time
+                    self._out.append((self._line_free, self._pending.pop(), self.baudrate))
                 self._next_node += self.sample_time
             if now - self._next_node > 1.0:
                 self._next_node = now  # nobody read for a long time: do not backlog

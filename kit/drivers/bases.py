@@ -37,7 +37,7 @@ import numpy as np
 from kit import kinematics, msgs
 from kit.drivers import dpralte, safety
 from kit.drivers.dpralte import COMMS_ERROR, DpralteDrive
-from kit.drivers.errors import DriverError
+from kit.drivers.errors import DriverError, PortError
 from kit.drivers.odrive import (
     CLOSED_LOOP_CONTROL,
     FULL_CALIBRATION_SEQUENCE,
@@ -217,11 +217,16 @@ class _Safe:
 
     def emergency_stop(self) -> None:
         """:meth:`stop` without raising (the program is ending; a port already gone is left
-        to the motor controllers' watchdogs)."""
-        try:
-            self.stop()
-        except DriverError:
-            self._disarmed()
+        to the motor controllers' watchdogs), tried twice if it fails otherwise."""
+        for _ in range(2):
+            try:
+                self.stop()
+                return
+            except PortError:
+                break
+            except DriverError:
+                continue
+        self._disarmed()
 
     def close(self) -> None:
         """Stop the motors (if this base started them) and close the port."""
@@ -552,22 +557,23 @@ class IgvBase(_Safe):
                 drive.set_comm_watchdog(0.0)
 
     def emergency_stop(self) -> None:
-        """:meth:`stop`, each drive on its own, the line cleared first (the program may have
-        been stopped half-way through a frame), without raising."""
+        """:meth:`stop`, each step on its own and asked twice if it fails (the program may
+        have been stopped half-way through a frame, which costs the first one), without
+        raising."""
         self._disarmed()
-        try:
-            self.right.clear_line()
-        except DriverError:
-            return
         steps: list[Callable[[], Any]] = []
         for drive in self.drives:
-            steps += [partial(drive.set_velocity_rpm, 0.0), drive.disable,
-                      partial(drive.set_comm_watchdog, 0.0)]
+            steps += [partial(drive.set_velocity_rpm, 0.0), drive.disable]
+        steps += [partial(drive.set_comm_watchdog, 0.0) for drive in self.drives]
         for step in steps:
-            try:
-                step()
-            except DriverError:
-                continue
+            for _ in range(2):
+                try:
+                    step()
+                    break
+                except PortError:
+                    return  # the port is gone: the drives' watchdogs stop them
+                except DriverError:
+                    continue
 
     def reopen(self) -> None:
         """Open the bus again after the port failed, on the same object. If both bridges are
