@@ -1,16 +1,36 @@
-"""Do the drivers keep up with the devices? Decoding rates in pure Python against what each
-device sends (and against the most its serial link can carry), the drivers with their
-emulators on the logical clock, and the Uiabot through its emulated ODrive. Run:
-python benchmarks/bench_drivers.py
+"""Do the drivers keep up with the devices, decode what they can and refuse what they cannot
+check, stop the motors, stamp honestly? Run: python benchmarks/bench_drivers.py [SECTION...]
 
-The bar (drivers issues): every device's stream decoded at least 20× faster than the device
-sends it. Each figure is the median of 5 repeats.
+Sections (all by default):
+
+* ``speed``: decoding rates in pure Python against what each device sends (and against the
+  most its serial link can carry), the drivers with their emulators on the logical clock,
+  and the Uiabot through its emulated ODrive. The bar: every device's stream decoded at
+  least 20× faster than the device sends it. Each figure is the median of 5 repeats.
+* ``fuzz``: the tests' fuzz, longer (fixed seeds): DPRALTE frames on a clean line (frames
+  lost, phantoms) and on a noisy one; ODrive replies with noise before their lines (wrong
+  numbers taken, lines lost).
+* ``safety``: the emulated Uiabot and IGV driven by a child process, then SIGKILLed or
+  SIGTERMed: when the wheels stopped, on the emulator's clock.
+* ``failures``: how long each driver takes to give its own error when its device freezes or
+  is unplugged (wall clock: the tests only check the error, never the time).
+* ``record``: ``kit record`` of the emulated Uiabot for 20 s: the rates it prints (from the
+  stamps) against the devices' own (the emulator's log), and how far each stamp is from the
+  device's own time of the measurement.
 """
 
 from __future__ import annotations
 
+import itertools
+import json
+import os
 import random
+import signal
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from bench_core import best_rate  # the same median-of-repeats rate (scripts run from here)
@@ -21,6 +41,7 @@ from hardware.emulators.rplidar import RPLidarEmulator
 from kit import msgs
 from kit.drivers import bno055, dpralte, lms2xx, odrive, os5000, rplidar
 from kit.drivers.checksums import nmea_checksum, odrive_checksum
+from kit.drivers.timing import SampleClock
 
 A1_SAMPLES_PER_S = 2000.0
 LMS291_SCANS_PER_S = 75.0  # the mirror's rate, reached at 500 kbaud with 181 values
@@ -66,10 +87,12 @@ def decoding_the_scanners() -> None:
 
     def nodes_and_turns() -> int:
         parser, turns = rplidar.NodeParser(strict=True), rplidar.TurnAssembler()
+        clock = SampleClock(500e-6)
         n = 0
-        for chunk in stream:
+        for k, chunk in enumerate(stream):
             nodes = parser.feed(chunk)
-            turns.push(nodes, 0.0)
+            clock.observe(n + len(nodes), k * 0.05)
+            turns.push(nodes, [clock.time_of(n + i) for i in range(len(nodes))])
             n += len(nodes)
         return n
 
@@ -79,7 +102,7 @@ def decoding_the_scanners() -> None:
 
     report("RPLidar nodes, check bits only (Lab 03's)", best_rate(nodes_only), "nodes/s",
            A1_SAMPLES_PER_S, "the A1's 2000 samples/s", 11520 / 5)
-    report("RPLidar nodes → checked turns (the driver's)", best_rate(nodes_and_turns),
+    report("RPLidar nodes → timed, checked turns (driver)", best_rate(nodes_and_turns),
            "nodes/s", A1_SAMPLES_PER_S, "the A1's 2000 samples/s", 11520 / 5)
     nodes = rplidar.NodeParser().feed(b"".join(stream))
     turns = rplidar.split_revolutions(nodes)[1:-1]
@@ -207,7 +230,170 @@ def drivers_on_the_logical_clock() -> None:
           f"   × real time (20 Hz control loop, sim with lidar and IMU)")
 
 
+def fuzz() -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "kit" / "drivers"))
+    import test_mutated_streams as m
+
+    t0 = time.process_time()
+    rng = random.Random(2027)
+    n = 500_000
+    planted = [rng.random() < 0.01 for _ in range(n)]
+    frames = [m.adversarial_reply(rng, i % 16) if p else m.dpralte_frame(rng, i % 60_000)
+              for i, p in enumerate(planted)]
+    parser = dpralte.FrameParser()
+    got = [f for chunk in m.pieces(b"".join(frames), rng) for f in parser.feed(chunk)]
+    got += parser.flush()
+    sent = frames
+    decoded = [m.reencode(f) for f in got]
+    lost = len(m.in_order(sent, decoded))
+    phantom = len(m.in_order(decoded, sent))
+    print(f"DPRALTE, clean line: {n} frames ({sum(planted)} 3-word replies whose data is a "
+          f"header): {lost} lost, {phantom} phantoms, {parser.ambiguous} given with their "
+          f"other reading ({time.process_time() - t0:.0f} s CPU)")
+
+    t0 = time.process_time()
+    rng = random.Random(2028)
+    frames = [m.dpralte_frame(rng, i % 60_000) for i in range(200_000)]
+    stream, intact, hit = m.mutated(frames, rng)
+    parser = dpralte.FrameParser()
+    got = [f for chunk in m.pieces(stream, rng) for f in parser.feed(chunk)] + parser.flush()
+    lost = len(m.in_order(intact, m.readings(got)))
+    certain = [m.reencode(f) for f in got if not f.alternatives]
+    wrong = len(m.in_order(certain, frames))
+    print(f"DPRALTE, 1 frame in 10 damaged: {len(frames)} frames, {hit} damaged: {lost} intact "
+          f"lost, {wrong} damaged taken as certain, {parser.ambiguous} with two readings "
+          f"({time.process_time() - t0:.0f} s CPU)")
+
+    for form, seed in (("feedback", 11), ("number", 12)):
+        t0 = time.process_time()
+        rng = random.Random(seed)
+        frames = [m.odrive_reply(rng, i, form) for i in range(200_000)]
+        stream = b"".join(bytes(rng.randrange(256) for _ in range(rng.randint(0, 6))) + f
+                          for f in frames)
+        lines = odrive.ReplyLines(checksum=True, form=form)
+        got = [t for chunk in m.pieces(stream, rng) for t in lines.feed(chunk)]
+        texts = [m._text(f) for f in frames]  # each one different
+        place = {t: k for k, t in enumerate(texts)}
+        order = [place.get(t, -1) for t in got]
+        wrong = sum(k < 0 for k in order) + sum(b <= a for a, b in itertools.pairwise(order))
+        taken = set(got)
+        lost = [t for t in texts if t not in taken]
+        prefix = sum(m._zero_xor_prefix(t, form) for t in lost)
+        print(f"ODrive {form} replies, 0-6 random bytes before each: {len(frames)} lines: "
+              f"{wrong} corrupted numbers taken, {len(lost)} lost "
+              f"({len(lost) / len(frames):.1%}; {prefix} of them ambiguous even when clean: "
+              f"a zero-XOR prefix, told apart by the driver) ({time.process_time() - t0:.0f} s "
+              f"CPU)")
+
+
+DRIVER = """
+import sys, time
+from kit.drivers.bases import IgvBase, UiabotBase
+robot, path, timeout = sys.argv[1], sys.argv[2], float(sys.argv[3])
+base = UiabotBase(path, watchdog_timeout=timeout) if robot == "uiabot" else \
+    IgvBase(path, watchdog_timeout=timeout)
+base.bring_up() if robot == "uiabot" else base.start()
+base.drive((0.2, 0.0))
+print("driving", flush=True)
+time.sleep(600)
+"""
+
+
+def safety(runs: int = 5, timeout: float = 0.5) -> None:
+    from hardware.emulators import PtyServer
+    from hardware.emulators.backends import IdealWheels
+    from hardware.emulators.dpralte import DpralteBusEmulator
+    from hardware.emulators.odrive import ODriveEmulator
+
+    for robot in ("uiabot", "igv"):
+        for how in ("SIGKILL", "SIGTERM"):
+            delays = []
+            for _ in range(runs):
+                wheels = IdealWheels()
+                device = ODriveEmulator(wheels, calibration_time=0.2) if robot == "uiabot" \
+                    else DpralteBusEmulator(wheels)
+                server = PtyServer(device).start()
+                proc = subprocess.Popen([sys.executable, "-c", DRIVER, robot, server.path,
+                                         str(timeout)], stdout=subprocess.PIPE, text=True)
+                assert proc.stdout.readline().strip() == "driving"
+                while not all(wheels.speeds):
+                    time.sleep(0.005)
+                sent = server.now()
+                os.kill(proc.pid, getattr(signal, how))
+                proc.wait(30)
+                while any(wheels.speeds):
+                    time.sleep(0.001)
+                stopped = server.now()  # (IdealWheels: the speed goes to 0 at the stop)
+                if how == "SIGKILL":
+                    parts = device.axes if robot == "uiabot" else device.drives.values()
+                    stopped = max(p.watchdog_expired_at for p in parts)
+                delays.append(stopped - sent)
+                server.stop()
+            print(f"{robot} {how}: wheels stopped {1e3 * np.median(delays):6.0f} ms after the "
+                  f"signal (median of {runs}; max {1e3 * max(delays):.0f} ms; watchdog "
+                  f"{timeout:g} s; emulator's clock)")
+
+
+def failures() -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "hardware"))
+    from test_device_failures import emulators, start
+
+    from hardware.emulators import PtyServer
+
+    for fault in ("freeze", "unplug"):
+        devices = emulators()
+        server = PtyServer(list(devices.values())).start()
+        readings = {}
+        for name, path in zip(devices, server.paths, strict=True):
+            read, deadline = start(name, path)
+            read()
+            readings[name] = (read, deadline)
+        server.freeze() if fault == "freeze" else server.stop()
+        for name, (read, deadline) in readings.items():
+            for _ in range(100):
+                t0 = time.monotonic()
+                try:
+                    read()
+                except Exception as exc:
+                    took = time.monotonic() - t0
+                    print(f"{fault:7s} {name:8s} {type(exc).__name__:14s} after "
+                          f"{took * 1e3:6.0f} ms (its deadline {deadline:g} s)")
+                    break
+        server.stop()
+
+
+def record(seconds: float = 20.0) -> None:
+    from kit import cli
+    from kit.bag import read_bag
+
+    folder = Path(tempfile.mkdtemp())
+    stats = folder / "sent.json"
+    proc = subprocess.Popen([sys.executable, "-m", "hardware.emulators", "uiabot", "--stats",
+                             str(stats)], stdout=subprocess.PIPE, text=True)
+    ports = [f"{n}={p}" for n, p in (proc.stdout.readline().split() for _ in range(3))]
+    cli.main(["record", *ports, "--duration", str(seconds), "--out", str(folder / "bag")])
+    proc.terminate()
+    proc.wait(60)
+    sent = json.loads(stats.read_text())
+    bag = list(read_bag(folder / "bag"))
+    for topic, device, kind in (("/scan", "rplidar", "turn"), ("/imu", "bno055", "imu"),
+                                ("/joint_states", "odrive", "feedback1")):
+        stamps = np.array([t * 1e-9 for name, t, _ in bag if name == topic])
+        events = sent["epoch"] + np.array(sent["devices"][device]["events"][kind])
+        within = events[(events >= stamps[0] - 0.05) & (events <= stamps[-1] + 0.05)]
+        rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
+        device_rate = (len(within) - 1) / (within[-1] - within[0])
+        error = np.abs(events[np.abs(events[:, None] - stamps).argmin(axis=0)] - stamps)
+        print(f"{topic:14s} {len(stamps):5d} messages, {rate:7.2f} Hz from the stamps, the "
+              f"device {device_rate:7.2f} Hz ({rate / device_rate - 1:+.2%}); stamp − device's "
+              f"time: median {np.median(error) * 1e3:.2f} ms, max {error.max() * 1e3:.2f} ms")
+
+
+SECTIONS = {"speed": lambda: (decoding_the_scanners(), decoding_the_others(),
+                              drivers_on_the_logical_clock()),
+            "fuzz": fuzz, "safety": safety, "failures": failures, "record": record}
+
 if __name__ == "__main__":
-    decoding_the_scanners()
-    decoding_the_others()
-    drivers_on_the_logical_clock()
+    for section in sys.argv[1:] or list(SECTIONS):
+        print(f"== {section}")
+        SECTIONS[section]()

@@ -68,6 +68,14 @@ class BagWriter:
                  tb: TracebackType | None) -> None:
         self._writer.close()
 
+    def custom_data(self, key: str, value: str) -> None:
+        """A ``key: value`` note in the bag's ``metadata.yaml`` (rosbag2's ``custom_data``,
+        kept with the bag): what the recorder wants a reader of the bag to know."""
+        if not isinstance(key, str) or not isinstance(value, str):
+            raise TypeError(f"custom data is str: str; got {type(key).__name__}: "
+                            f"{type(value).__name__}")
+        self._writer.set_custom_data(key, value)
+
     def write(self, topic: str, message: msgs.Message, time_ns: int | None = None) -> None:
         """Add one message; ``time_ns`` defaults to the message's header stamp."""
         typename = message.ROS_TYPE

@@ -2,6 +2,8 @@
 
     kit robots                      the robots and their key numbers
     kit robot uiabot                one robot's parameters and static transforms
+    kit robot FILE                  any robot's URDF, xacro file or bag: what was found in it
+                                    and what was assumed (--params, --xacro-arg, --package-path)
     kit wheels igv 1.0 0.0          wheel speeds (and the IGV's RPM and drive units) for v, ω
 
 Subcommands of a topic (``kit slam``, ``kit plan``, ...) live beside their algorithms, in a
@@ -31,19 +33,41 @@ def _robots(args: argparse.Namespace) -> int:
 
 
 def _robot(args: argparse.Namespace) -> int:
-    r = robots.load(args.name)
+    from kit import description_files
+
+    if args.name in robots.ROBOTS and (args.params or args.xacro_arg or args.package_path):
+        raise ValueError(f"--params, --xacro-arg and --package-path go with a robot file, not "
+                         f"the shipped {args.name}")
+    r = robots.load(args.name, parameters=args.params,
+                    xacro_args=description_files.parse_xacro_args(args.xacro_arg),
+                    package_paths=description_files.parse_package_paths(args.package_path),
+                    topic=args.topic)
     print(f"{r.name}: {r.description}")
     print(f"  {'source':22s}{r.source}")
     for key in ("wheel_radius", "wheel_separation", "gear_ratio",
                 "encoder_resolution", "counter_bits", "metres_per_tick", "max_wheel_speed",
                 "max_linear_velocity", "cruise_velocity", "max_angular_velocity", "mass"):
         print(f"  {key:22s}{getattr(r, key):g}")
+    print(f"  {'base frame':22s}{r.base_frame}")
+    print(f"  {'wheel joints':22s}{r.wheel_joints[0]} (right), {r.wheel_joints[1]} (left), "
+          f"midpoint at ({r.axle[0]:+.3f}, {r.axle[1]:+.3f}) m")
+    fp = r.footprint
+    print(f"  {'footprint':22s}{len(fp)} points, x {fp[:, 0].min():+.3f} to "
+          f"{fp[:, 0].max():+.3f} m, y {fp[:, 1].min():+.3f} to {fp[:, 1].max():+.3f} m")
     print("  static transforms (parent -> child: x y z [m], yaw [deg])")
     for j in r.joints:
         print(f"    {j.parent} -> {j.child}: {j.xyz[0]:+.4f} {j.xyz[1]:+.4f} {j.xyz[2]:+.4f}, "
               f"{np.degrees(j.rpy[2]):+.1f}")
     for sensor, params in r.sensors.items():
         print(f"  sensor {sensor}: " + ", ".join(f"{k}={v}" for k, v in params.items()))
+    if r.found:
+        print("  found in the description:")
+        for line in r.found:
+            print(f"    {line}")
+    if r.assumed:
+        print("  assumed (give them in a parameter file with --params):")
+        for line in r.assumed:
+            print(f"    {line}")
     return 0
 
 
@@ -78,8 +102,20 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"kit {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("robots", help="list the robots").set_defaults(func=_robots)
-    p = sub.add_parser("robot", help="one robot's parameters and frames")
-    p.add_argument("name", help="uiabot, igv, eddie or a parameter file (.toml)")
+    p = sub.add_parser("robot", help="one robot's parameters and frames: a shipped robot, or "
+                       "any robot's URDF, xacro file or bag")
+    p.add_argument("name", help="uiabot, igv, eddie, a parameter file (.toml), a .urdf, "
+                   ".urdf.xacro or .xacro file, or a bag that recorded /robot_description")
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="for a URDF, xacro file or bag: a TOML file of what the URDF does not "
+                   "hold ([drive] limits, [sensors.lidar], [footprint] ...)")
+    p.add_argument("--xacro-arg", action="append", default=[], metavar="NAME:=VALUE",
+                   help="a xacro argument (repeatable), e.g. namespace:=tb3_0/")
+    p.add_argument("--package-path", action="append", default=[], metavar="PKG=DIR",
+                   help="where ROS package PKG is, for $(find PKG) and package:// without ROS "
+                   "(repeatable)")
+    p.add_argument("--topic", default="/robot_description",
+                   help="a bag's URDF topic (default /robot_description)")
     p.set_defaults(func=_robot)
     p = sub.add_parser("wheels", help="wheel speeds for a twist (v [m/s], ω [rad/s])")
     p.add_argument("name")

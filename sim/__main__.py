@@ -1,7 +1,10 @@
 """``python -m sim demo [--out DIR] [--seed N]``, ``python -m sim bench [--quick]`` and
-``python -m sim navigate --world office|aisle --robot uiabot|igv --episodes N --seed S
-[--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass]
-[--keepout|--no-keepout] --out FILE.csv``."""
+``python -m sim navigate --world office|aisle --robot uiabot|igv|eddie|FILE --episodes N
+--seed S [--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass]
+[--keepout|--no-keepout] --out FILE.csv``. ``--robot`` also takes a robot's own description:
+a ``.urdf``, ``.urdf.xacro`` (with ``--xacro-arg NAME:=VALUE`` and ``--package-path
+PKG=DIR``), a kit ``.toml`` or a bag that recorded ``/robot_description``;
+``--robot-params FILE`` gives what its URDF does not hold (see :func:`kit.robots.load`)."""
 
 from __future__ import annotations
 
@@ -9,6 +12,10 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from kit.robots import RobotDescription
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -22,7 +29,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     bench.add_argument("--quick", action="store_true", help="one short run per figure")
     nav = sub.add_parser("navigate", help="seeded navigation episodes; one CSV row per goal")
     nav.add_argument("--world", choices=("office", "aisle"), default="office")
-    nav.add_argument("--robot", choices=("uiabot", "igv", "eddie"), default="uiabot")
+    nav.add_argument("--robot", default="uiabot",
+                     help="uiabot, igv, eddie, or a robot file: .urdf, .urdf.xacro, .xacro, "
+                     ".toml, or a bag with /robot_description")
+    nav.add_argument("--robot-params", default=None, metavar="FILE",
+                     help="for a URDF, xacro file or bag: a TOML file of what the URDF does "
+                     "not hold ([drive] limits, [sensors.lidar], [footprint] ...)")
+    nav.add_argument("--xacro-arg", action="append", default=[], metavar="NAME:=VALUE",
+                     help="a xacro argument of the robot file (repeatable)")
+    nav.add_argument("--package-path", action="append", default=[], metavar="PKG=DIR",
+                     help="where ROS package PKG is, for $(find PKG) and package:// without "
+                     "ROS (repeatable)")
     nav.add_argument("--episodes", type=int, default=20)
     nav.add_argument("--seed", type=int, default=0, help="episode i runs with seed S + i")
     nav.add_argument("--localization", choices=("truth", "amcl", "slam"), default="truth")
@@ -54,18 +71,21 @@ def _navigate(args: argparse.Namespace) -> int:
         print("python -m sim navigate: --episodes must be at least 1", file=sys.stderr)
         return 2
     try:
-        rows = scenarios.navigate(args.world, args.robot, args.episodes, args.seed,
+        robot = _robot(args)
+    except ValueError as e:
+        print(f"python -m sim navigate: {e}", file=sys.stderr)
+        return 2
+    try:
+        rows = scenarios.navigate(args.world, robot, args.episodes, args.seed,
                                   args.localization, args.controller, args.route, args.keepout,
                                   people=args.people)
     except ValueError as e:
         print(f"python -m sim navigate: {e}", file=sys.stderr)
         return 2
     out = scenarios.write_table(rows, args.out)
-    from kit.robots import load
-
-    figures = scenarios.summary(rows, load(args.robot).cruise_velocity)
-    route = args.route or scenarios.default_route(args.world, args.robot)
-    print(f"{args.world}/{route}, {args.robot}, {args.localization}, {args.controller}: "
+    figures = scenarios.summary(rows, robot.cruise_velocity)
+    route = args.route or scenarios.default_route(args.world, robot)
+    print(f"{args.world}/{route}, {robot.name}, {args.localization}, {args.controller}: "
           f"{figures['reached']:.0%} of {figures['goals']} goals reached; "
           f"{figures['episodes_without_person_collision']:.0%} of {figures['episodes']} "
           f"episodes without touching a person; {figures['collisions_static']:.0f} contacts "
@@ -73,6 +93,20 @@ def _navigate(args: argparse.Namespace) -> int:
           f"{figures['median_time_ratio']:.2f}")
     print(f"wrote {out}")
     return 0
+
+
+def _robot(args: argparse.Namespace) -> RobotDescription:
+    """The ``--robot`` description, loaded once with its xacro arguments, package paths and
+    parameter file."""
+    from kit import description_files, robots
+
+    if args.robot in robots.ROBOTS and (args.robot_params or args.xacro_arg or
+                                        args.package_path):
+        raise ValueError(f"--robot-params, --xacro-arg and --package-path go with a robot "
+                         f"file, not the shipped {args.robot}")
+    return robots.load(args.robot, parameters=args.robot_params,
+                       xacro_args=description_files.parse_xacro_args(args.xacro_arg),
+                       package_paths=description_files.parse_package_paths(args.package_path))
 
 
 if __name__ == "__main__":

@@ -122,9 +122,11 @@ cannot turn round in the 1.5 m aisle (turning in place sweeps a disc 1.72 m acro
 drives the paper's one-way test instead."""
 
 
-def default_route(world: str, robot: str) -> str:
-    """The route a world's episodes take for a robot when none is named."""
-    return DEFAULT_ROUTES.get((world, robot), "tour")
+def default_route(world: str, robot: str | RobotDescription) -> str:
+    """The route a world's episodes take for a robot (a name or a description) when none is
+    named."""
+    name = robot if isinstance(robot, str) else robot.name
+    return DEFAULT_ROUTES.get((world, name), "tour")
 
 
 @dataclass
@@ -231,8 +233,7 @@ class SlamLocalization:
         self.minimum_travel_heading = float(minimum_travel_heading)
 
     def start(self, sim: Simulation, robot: int, odom_pose: FloatArray) -> None:
-        mount = sim.description(robot).joint("laser_joint")
-        self.mount = np.array([mount.xyz[0], mount.xyz[1], mount.rpy[2]], dtype=float)
+        self.mount = np.array(sim.description(robot).sensor_mount("lidar"), dtype=float)
         self.slam = Slam(tuple(self.mount), self.config)
         self.seen_free: NDArray[np.bool_] | None = None  # canvas cells far inside free space
         self.dropped = 0       # returns dropped as moving things
@@ -333,9 +334,7 @@ def unknown_canvas(canvas: msgs.OccupancyGrid) -> msgs.OccupancyGrid:
 
 
 def _laser_mount(robot: RobotDescription) -> RigidTransform:
-    joint = robot.joint("laser_joint")
-    return RigidTransform.from_pose2d([float(joint.xyz[0]), float(joint.xyz[1]),
-                                       float(joint.rpy[2])])
+    return RigidTransform.from_pose2d(robot.sensor_mount("lidar"))
 
 
 # ---------------------------------------------------------------- the node
@@ -369,8 +368,7 @@ class NavigationNode(Node):
 
     def start(self, sim: Simulation, robot: int) -> Published:
         self.sim, self.robot = sim, robot
-        joint = sim.description(robot).joint("laser_joint")
-        self.mount_pose = np.array([joint.xyz[0], joint.xyz[1], joint.rpy[2]], dtype=float)
+        self.mount_pose = np.array(sim.description(robot).sensor_mount("lidar"), dtype=float)
         self.footprint = np.asarray(sim.description(robot).footprint, dtype=float)
         self.reach = float(np.max(np.hypot(self.footprint[:, 0], self.footprint[:, 1])))
         self.odom_pose = sim.ground_truth(robot).pose.copy()
@@ -504,14 +502,15 @@ class EpisodeSetup:
     """What every episode of a scenario shares: the maps, the shortest paths."""
 
     route: Route
-    robot: str
+    robot: str | RobotDescription
     world: World
     nav_grid: msgs.OccupancyGrid
     keepout: msgs.OccupancyGrid | None
     shortest: list[float] = field(default_factory=list)
 
 
-def setup(world: str = "office", robot: str = "uiabot", route: str | None = None,
+def setup(world: str = "office", robot: str | RobotDescription = "uiabot",
+          route: str | None = None,
           keepout: bool | None = None) -> EpisodeSetup:
     """The scenario's maps (the lidar's: no glass; the glass as a keep-out mask when asked —
     by default for every route but ``glass``, which shows what happens without) and the
@@ -531,12 +530,12 @@ def setup(world: str = "office", robot: str = "uiabot", route: str | None = None
     return s
 
 
-def shortest_lengths(world: World, robot: str, route: Route) -> list[float]:
+def shortest_lengths(world: World, robot: str | RobotDescription, route: Route) -> list[float]:
     """Any-angle (Theta*) shortest collision-free length [m] of each leg of the route on the
     world's true walls (glass included), for the robot's footprint."""
     from kit.robots import load as load_robot
 
-    d = load_robot(robot)
+    d = robot if isinstance(robot, RobotDescription) else load_robot(robot)
     inflated = NavigationCostmap(world.occupancy_grid(0.05, layer="all"),
                                  d.footprint).costmap()
     # where the footprint's inscribed circle fits, free; elsewhere lethal: pure geometry
@@ -592,7 +591,8 @@ def episode(s: EpisodeSetup, index: int, seed: int, localization: str = "truth",
                        controller).results
 
 
-def navigate(world: str = "office", robot: str = "uiabot", episodes: int = 20, seed: int = 0,
+def navigate(world: str = "office", robot: str | RobotDescription = "uiabot", episodes: int = 20,
+             seed: int = 0,
              localization: str = "truth", controller: str = "rpp", route: str | None = None,
              keepout: bool | None = None, bar: bool = True,
              people: int | None = None) -> list[GoalResult]:

@@ -346,9 +346,10 @@ class Simulation:
         traction = ph.friction * d.mass * ph.gravity * ph.weight_on_wheels / 2
         grounds, joints = [], []
         half = d.wheel_separation / 2.0
+        ax, ay = float(d.axle[0]), float(d.axle[1])  # the wheels' midpoint in base_link
         for y in (-half, half):  # right, left
             ground = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-            joint = pymunk.PivotJoint(body, ground, (0.0, y), (0.0, 0.0))
+            joint = pymunk.PivotJoint(body, ground, (ax, ay + y), (0.0, 0.0))
             joint.max_bias = 0.0
             joint.max_force = traction
             joint.collide_bodies = False
@@ -357,15 +358,11 @@ class Simulation:
             joints.append(joint)
         lidar = imu = None
         if self._sensors and "lidar" in d.sensors:
-            lj = d.joint("laser_joint") if any(j.name == "laser_joint" for j in d.joints) \
-                else None
-            mount = (float(lj.xyz[0]), float(lj.xyz[1]), float(lj.rpy[2])) if lj else \
-                (0.0, 0.0, 0.0)
+            mount = d.sensor_mount("lidar")  # composed from the URDF; (0, 0, 0) if absent
             lidar = Lidar(d.sensors["lidar"], mount, np.random.default_rng(self.rng.integers(
                 2**63)), self._lidar_rate, self._lidar_beams)
         if self._sensors and "imu" in d.sensors:
-            ij = d.joint("imu_joint") if any(j.name == "imu_joint" for j in d.joints) else None
-            mount2 = (float(ij.xyz[0]), float(ij.xyz[1])) if ij else (0.0, 0.0)
+            mount2 = d.sensor_mount("imu")[:2]
             imu = Imu(d.sensors["imu"], mount2, np.random.default_rng(self.rng.integers(2**63)))
         prefix = "" if len(self.descriptions) == 1 else f"/robot{index}"
         offset = self.rng.integers(0, 1 << min(d.counter_bits, 62), 2, dtype=np.int64)
@@ -666,8 +663,9 @@ class Simulation:
                 r.wheel_angle[k] += slip / d.wheel_radius
             r.grounds[k].velocity = (rim * c, rim * s)
             if oily:
-                y = (-0.5 if k == 0 else 0.5) * d.wheel_separation
-                slippery = self.world.in_oil(px - s * y, py + c * y)
+                x = float(d.axle[0])
+                y = float(d.axle[1]) + (-0.5 if k == 0 else 0.5) * d.wheel_separation
+                slippery = self.world.in_oil(px + c * x - s * y, py + s * x + c * y)
                 if slippery != r.on_oil[k]:  # pymunk's setters are dear: only on a change
                     r.on_oil[k] = slippery
                     r.joints[k].max_force = oil_force if slippery else r.traction
@@ -784,7 +782,8 @@ class Simulation:
         rim = r.wheel_speed * r.description.wheel_radius * \
             (1.0 + np.asarray(self.physics.wheel_radius_errors))
         half = 0.5 * r.description.wheel_separation
-        ground_speed = np.array([v_forward + w * half, v_forward - w * half])
+        v_axle = v_forward - w * float(r.description.axle[1])  # forward speed at the axle
+        ground_speed = np.array([v_axle + w * half, v_axle - w * half])
         return GroundTruth(self.time, r.pose.copy(), r.velocity.copy(), rim - ground_speed,
                            self.world.in_oil(float(r.pose[0]), float(r.pose[1])))
 

@@ -175,10 +175,9 @@ def test_a_silent_drive_times_out_naming_device_and_command():
 
     with PtyServer(DpralteBusEmulator(faults=Faults(silence=1.0, silence_s=1e9))) as server:
         drive = dpralte.DpralteDrive(server.path, 0x3E, timeout=0.2)
-        start = time.monotonic()
-        with pytest.raises(DeviceTimeout, match=r"DPRALTE: read position: no reply from 0x3E"):
+        with pytest.raises(DeviceTimeout, match=r"DPRALTE: read position: no reply from 0x3E "
+                                                r"within 0\.2 s"):
             drive.read_position()
-        assert time.monotonic() - start < 0.5
 
 
 def test_a_closed_port_is_a_clear_error():

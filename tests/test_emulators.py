@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -91,12 +90,15 @@ def test_the_dpralte_driver_runs_both_drives_on_one_emulated_bus():
     base.start()
     base.drive((1.0, 0.0))
     assert [round(wheels.speeds[k] * 60 / (2 * math.pi), 1) for k in (0, 1)] == [59.7, 59.7]
-    assert base.update().pose.pose.position.x == 0.0
-    clock.sleep(10.0)
+    t0 = clock.now
+    while clock.now < t0 + 10.0:  # a 20 Hz control loop: each command feeds the watchdogs
+        clock.sleep(0.05)
+        base.drive((1.0, 0.0))
     odom = base.update()
-    # v = 1 m/s through the paper's equations: 10 m in 10 s, give or take the rounding of
-    # 59.70 RPM to 2608 drive units and of the 400-count encoder
-    assert odom.pose.pose.position.x == pytest.approx(10.0, rel=2e-3)
+    # v = 1 m/s through the paper's equations: 1 m per second driven, give or take the
+    # rounding of 59.70 RPM to 2608 drive units and of the 400-count encoder
+    driven = odom.header.stamp.to_sec() - t0
+    assert driven > 10.0 and odom.pose.pose.position.x == pytest.approx(driven, rel=2e-3)
     base.stop()
     assert wheels.speeds == [0.0, 0.0]
 
@@ -105,10 +107,9 @@ def test_a_silent_drive_times_out_in_logical_time():
     clock = Clock()
     port = LogicalPort(DpralteBusEmulator(faults=Faults(silence=1.0, silence_s=1e9)), clock)
     drive = dpralte.DpralteDrive(port, 0x3E, timeout=0.2, clock=clock)
-    t0 = time.perf_counter()
     with pytest.raises(DeviceTimeout, match=r"DPRALTE: read position: no reply from 0x3E"):
         drive.read_position()
-    assert clock.now == pytest.approx(0.2, abs=0.02) and time.perf_counter() - t0 < 0.5
+    assert clock.now == pytest.approx(0.2, abs=0.02)  # the deadline, on the logical clock
 
 
 # ------------------------------------------------------------------ OS5000 (§2.6)
@@ -297,17 +298,26 @@ def test_uiabot_bring_up_on_the_logical_clock():
     clock = Clock()
     device = ODriveEmulator(calibration_time=12.0)
     base = UiabotBase(LogicalPort(device, clock), clock=clock, sleep=clock.sleep)
-    t0 = time.perf_counter()
     base.bring_up()
     assert [s for s, _ in base.steps_done] == ["connect", "calibrate", "closed loop"]
-    assert 12.0 <= clock.now < 12.5 and time.perf_counter() - t0 < 2.0
+    assert 12.0 <= clock.now < 12.5  # the calibration's 12 s, on the logical clock
     assert [a.current_state for a in device.axes] == [8, 8]
+    # the firmware's watchdog on both axes, with the base's time-out, not yet run out
+    assert [(a.watchdog_enabled, a.watchdog_timeout, a.error) for a in device.axes] == \
+        [(True, 0.5, 0), (True, 0.5, 0)]
     base.drive((0.5, 0.0))
     right, left = device.axes[0].input_vel, device.axes[1].input_vel
     # 0.5 m/s → 0.5/r rad/s at the wheel → × 20 / 2π turns/s at the motor; left mirrored
     expected = 0.5 / base.robot.wheel_radius * 20 / (2 * math.pi)
     assert right == pytest.approx(expected, rel=1e-6) and left == pytest.approx(-expected,
                                                                                 rel=1e-6)
+    # the odometry started from the encoders at the end of the bring-up: the first
+    # update() after drive() already gives the motion since (0.5 m/s for 0.2 s)
+    driving = clock.now
+    clock.sleep(0.2)
+    odom = base.update()
+    moved = 0.5 * (odom.header.stamp.to_sec() - driving)
+    assert odom.pose.pose.position.x == pytest.approx(moved, abs=2e-3) and moved > 0.09
 
 
 @pytest.mark.parametrize(("device", "step", "message"), [
@@ -337,19 +347,44 @@ def test_closed_loop_is_refused_before_calibration():
 
 
 def test_odrive_watchdog_stops_an_axis_nobody_feeds():
+    """As firmware 0.5.x's ``watchdog_check``: a feed reloads the counter, which runs down
+    while the watchdog is enabled; at zero the axis gets 0x800 and falls to IDLE, at that
+    instant. The driver's order — time-out, ``u``, enable — is the one that works."""
     clock = Clock()
-    device = ODriveEmulator(calibration_time=0.0)
+    wheels = IdealWheels()
+    device = ODriveEmulator(wheels, calibration_time=0.0)
     od = odrive.ODrive(LogicalPort(device, clock), clock=clock, sleep=clock.sleep)
     od.request_state(0, 3)
     od.wait_for_state(0, 1, 1.0)
-    od.write("axis0.config.watchdog_timeout", 0.5)
-    od.write("axis0.config.enable_watchdog", True)
+    od.set_watchdog(0, 0.5)
     od.request_state(0, 8)
     od.set_velocity(0, 1.0)
+    fed = clock.now
     clock.sleep(0.3)
-    assert od.axis_state(0) == 8
+    assert od.axis_state(0) == 8 and od.axis_error(0) == 0
     clock.sleep(1.0)
-    assert od.axis_state(0) == 1 and od.axis_error(0) == 0x800
+    assert od.axis_state(0) == 1 and od.axis_error(0) == odrive.WATCHDOG_TIMER_EXPIRED
+    axis = device.axes[0]
+    assert axis.watchdog_expired_at == pytest.approx(fed + 0.5, abs=1e-3)
+    # the wheel turned until then and not after: 1 turn/s of the motor, 20:1 to the wheel
+    assert wheels.angles[0] == pytest.approx(2 * math.pi / 20 * (axis.watchdog_expired_at -
+                                                                   fed), abs=1e-3)
+    od.clear_errors()  # a spent counter sets the error again at once...
+    assert od.axis_error(0) == odrive.WATCHDOG_TIMER_EXPIRED
+    od.feed(0)  # ...until it is fed
+    od.clear_errors()
+    assert od.axis_error(0) == 0
+
+
+def test_an_odrive_watchdog_enabled_without_a_feed_stops_at_once():
+    """The firmware's counter holds 0 after power-up: enabling the watchdog before a feed
+    expires it on the next tick (what the driver's feed before enabling avoids)."""
+    clock = Clock()
+    device = ODriveEmulator(calibration_time=0.0)
+    od = odrive.ODrive(LogicalPort(device, clock), clock=clock, sleep=clock.sleep)
+    od.write("axis0.config.watchdog_timeout", 0.5)
+    od.write("axis0.config.enable_watchdog", True)
+    assert od.axis_error(0) == odrive.WATCHDOG_TIMER_EXPIRED
 
 
 # ------------------------------------------------------------------ BNO055 (§5.6)
@@ -421,7 +456,8 @@ def test_rplidar_emulator_answers_the_specs_requests():
     got = exchange(device, h("A5 20"), after=0.05)
     assert got[:7] == h("A5 5A 05 00 00 40 81")
     nodes = rplidar.NodeParser().feed(got[7:])
-    assert 85 <= len(nodes) <= 101 and nodes[0].start  # 2000 samples/s
+    # 2000 samples/s: 100 measured in 50 ms, each sent once measured (5 bytes: 0.43 ms)
+    assert 85 <= len(nodes) <= 100 and nodes[0].start
     device.feed(h("A5 25"), 0.06)
     device.read(0.06)
     assert device.read(1.0) == b""  # STOP ends the stream
@@ -459,7 +495,9 @@ def test_drivers_ride_through_corrupted_streams():
     device.faults = Faults(seed=3, flip=0.002, drop=0.002, duplicate=0.002)
     for _ in range(15):
         scan = lidar.read_scan()
-        assert np.isfinite(scan.ranges).sum() > 300
+        # the room returns no echo from about a third of its samples (glass, a door, a
+        # dark wall): what is left comes through the noise
+        assert np.isfinite(scan.ranges).sum() > 200
     assert lidar.parser.skipped > 0
 
     clock = Clock()
@@ -523,11 +561,9 @@ def test_a_pseudo_terminal_whose_emulator_stops_is_an_error_not_a_hang():
     lidar.start()
     lidar.read_scan()
     server.stop()
-    t0 = time.monotonic()
     with pytest.raises((ProtocolError, DeviceTimeout)):
         for _ in range(10):
             lidar.read_scan()
-    assert time.monotonic() - t0 < 2.0
 
 
 # ------------------------------------------------------------------ real pseudo-terminals
@@ -635,8 +671,9 @@ def test_the_real_drivers_drive_the_simulated_igv_and_read_its_compass_and_scann
     reference = WheelOdometry.for_robot(rig.sim.descriptions[0])
     base.update()
     reference.update(*rig.sim.encoder_ticks(), rig.sim.time)
+    t0 = rig.clock.now
     for _ in range(180):  # 9 s at 20 Hz, 1 m/s down the aisle, a little weave about it
-        base.drive((1.0, 0.05 * math.cos(rig.clock.now)))
+        base.drive((1.0, 0.05 * math.cos(rig.clock.now - t0)))
         rig.clock.sleep(0.05)
         base.update()
         reference.update(*rig.sim.encoder_ticks(), rig.sim.time)

@@ -10,14 +10,21 @@ Examples::
     python -m hardware.emulators rplidar --sim office --faults seed=1,flip=0.001
     python -m hardware.emulators uiabot --world office --people 3
     python -m hardware.emulators rplidar --replay capture.bin
+    python -m hardware.emulators uiabot --stats sent.json
+
+``--stats FILE`` writes, when the emulator stops, what each device sent and did (bytes, and
+the time of each turn, IMU reading, encoder reply … on the wall clock, seconds since the
+epoch): what a recording of it can be checked against.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import signal
 import sys
 import threading
+from pathlib import Path
 from typing import Any
 
 from hardware.emulators.core import Device, Faults, PtyServer
@@ -56,6 +63,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--people", type=int, default=0)
     parser.add_argument("--faults", default="", help="e.g. seed=1,flip=0.001,drop=0.01,"
                                                      "silence=0.001,error=0.01")
+    parser.add_argument("--stats", metavar="FILE", default=None,
+                        help="write what each device sent and did to FILE (JSON) on exit")
     parser.add_argument("--replay", metavar="CAPTURE", default=None,
                         help="rplidar only: send this recorded stream (binary, 0xNN lines or "
                              "a hex dump) when asked to scan")
@@ -111,6 +120,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         pass
     server.stop()
+    if args.stats:
+        Path(args.stats).write_text(json.dumps({
+            "epoch": server.epoch,
+            "devices": {name: device.stats() for name, device in zip(names, devices,
+                                                                     strict=True)}}))
     return 0
 
 

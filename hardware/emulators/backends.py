@@ -6,7 +6,10 @@ A backend offers the devices one small interface, all on the emulators' clock:
 * ``set_wheel_speed(k, rad_s)`` and ``wheel_angle(k)`` / ``wheel_speed(k)`` for wheel
   ``k`` (0 right, 1 left), at the wheel (a motor controller applies its gearing);
 * ``subscribe(kind, callback)`` for ``"scan"`` and ``"imu"`` messages as they are made;
-* ``pose()`` and ``yaw()``: where the body is (IMUs and compasses read this).
+* ``pose()`` and ``yaw()``: where the body is (IMUs and compasses read this);
+* ``at(time, callback)``: call ``callback(time)`` when the world reaches ``time``, before it
+  goes on: a motor controller's watchdog stops the wheels at the instant it expires, even
+  when another device (a lidar streaming) is what moves the world on.
 
 With :class:`SimBackend` the ODrive's encoders are the simulated wheels, the lidar scans
 the simulated world and the IMU reads the simulated body, so the real driver stack drives
@@ -15,6 +18,8 @@ the simulated robot.
 
 from __future__ import annotations
 
+import heapq
+import itertools
 from collections.abc import Callable
 from typing import Any
 
@@ -38,16 +43,39 @@ def imu_yaw(message: msgs.Imu) -> float:
     return float(geometry.quaternion_to_yaw((q.x, q.y, q.z, q.w)))
 
 
-class IdealWheels:
+class _Timed:
+    """Callbacks due at given times, run in time order while a world advances."""
+
+    def __init__(self) -> None:
+        self._due: list[tuple[float, int, Callable[[float], None]]] = []
+        self._order = itertools.count()
+
+    def at(self, time: float, callback: Callable[[float], None]) -> None:
+        """Call ``callback(time)`` when the world reaches ``time`` (at once if it has)."""
+        heapq.heappush(self._due, (float(time), next(self._order), callback))
+
+    def _advance(self, now: float, step: Callable[[float], None]) -> None:
+        while self._due and self._due[0][0] <= now:
+            when, _, callback = heapq.heappop(self._due)
+            step(when)
+            callback(when)
+        step(now)
+
+
+class IdealWheels(_Timed):
     """Two wheels that take the commanded speed at once and integrate it exactly; no world
     (scans and IMU readings never come)."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.time = 0.0
         self.speeds = [0.0, 0.0]
         self.angles = [0.0, 0.0]
 
     def advance(self, now: float) -> None:
+        self._advance(now, self._integrate)
+
+    def _integrate(self, now: float) -> None:
         dt = now - self.time
         if dt > 0:
             for k in (0, 1):
@@ -74,7 +102,7 @@ class IdealWheels:
         return 0.0
 
 
-class SimBackend:
+class SimBackend(_Timed):
     """A robot of a :class:`sim.Simulation`, stepped in lock-step with the emulators' clock.
 
     Each ``advance(now)`` steps the simulation (its own fixed step) until its clock reaches
@@ -83,6 +111,7 @@ class SimBackend:
     """
 
     def __init__(self, sim: Any, robot: int = 0) -> None:
+        super().__init__()
         self.sim = sim
         self.robot = robot
         self._command = np.zeros(2)
@@ -101,6 +130,9 @@ class SimBackend:
         return self.sim.descriptions[self.robot]
 
     def advance(self, now: float) -> None:
+        self._advance(now, self._step)
+
+    def _step(self, now: float) -> None:
         sim = self.sim
         half = 0.5 * sim.physics.dt
         while sim.time + half <= now:

@@ -159,6 +159,8 @@ class BNO055Emulator(Device):
                 self._fusion_since is not None and now - self._fusion_since < self.fusion_start:
             self.send(b"\xee\x07", now)
             return
+        if reg == 0x08 and length >= 0x34 - 0x08:
+            self.event("imu", now)  # the data block an Imu is made of
         self.send(bytes([0xBB, length]) + bytes(self.regs[reg:reg + length]), now)
 
     def _write(self, reg: int, data: bytes, now: float) -> None:

@@ -149,6 +149,18 @@ class Device:
         self._line_free = 0.0  # when the device's transmitter is free again
         self.received = 0
         self.sent = 0
+        self.events: dict[str, list[float]] = {}
+        """what the device did that a host records, by kind (``"turn"``, ``"imu"``,
+        ``"feedback"`` …), each with the time it did it [s, the device's clock]."""
+
+    def event(self, kind: str, at: float) -> None:
+        """Note that the device did ``kind`` at ``at`` (its own clock)."""
+        self.events.setdefault(kind, []).append(at)
+
+    def stats(self) -> dict[str, Any]:
+        """What the device sent and did: bytes each way, and its :attr:`events`."""
+        return {"device": self.name, "sent": self.sent, "received": self.received,
+                "events": {kind: list(times) for kind, times in self.events.items()}}
 
     # ------------------------------------------------------------------ to implement
     def receive(self, data: bytes, now: float) -> None:
@@ -332,30 +344,84 @@ class LogicalPort:
 class PtyServer:
     """Serves one or more devices, each on its own pseudo-terminal, in real time.
 
-    ``path`` (or ``paths[i]``) is a slave's name (``/dev/pts/N``) for any serial driver to
-    open. Each slave is put in raw mode at once (protocols.md §0) and kept open by the
-    server so the master never sees a hang-up between a driver's sessions. All devices are
-    served by one thread, so devices that share a simulated robot never race.
+    ``path`` (or ``paths[i]``) is what a serial driver opens: the slave's name
+    (``/dev/pts/N``), or, given ``links``, a symbolic link to it at a path of your choosing
+    — as udev's ``/dev/serial/by-id/…`` links are — which stays the same when the device is
+    unplugged (:meth:`unplug`: its pseudo-terminal closed, the link removed) and plugged
+    back in (:meth:`replug`: a new pseudo-terminal behind the same link, and, for a device
+    that lost power, a new device). Each slave is put in raw mode at once (protocols.md §0)
+    and kept open by the server so the master never sees a hang-up between a driver's
+    sessions. All devices are served by one thread, so devices that share a simulated robot
+    never race. ``epoch`` is the wall-clock time [s since the epoch] of the devices' time 0.
     """
 
     def __init__(self, device: Device | list[Device], clock: Any = time.monotonic,
-                 start: float = 0.0) -> None:
+                 start: float = 0.0, links: list[str | None] | None = None) -> None:
         self.devices = list(device) if isinstance(device, (list, tuple)) else [device]
         self.clock = clock
+        self.links = list(links) if links is not None else [None] * len(self.devices)
+        if len(self.links) != len(self.devices):
+            raise ValueError(f"{len(self.devices)} devices but {len(self.links)} links")
         self.masters: list[int] = []
         self.slaves: list[int] = []
         self.paths: list[str] = []
-        for _ in self.devices:
-            master, slave = pty.openpty()
-            tty.setraw(slave)
-            os.set_blocking(master, False)
-            self.masters.append(master)
-            self.slaves.append(slave)
-            self.paths.append(os.ttyname(slave))
+        self.plugged: list[bool] = []
+        self._lock = threading.Lock()
+        for i in range(len(self.devices)):
+            self.masters.append(-1)
+            self.slaves.append(-1)
+            self.paths.append("")
+            self.plugged.append(False)
+            self._plug(i)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.overrun = 0
         self.t0 = clock() - start  # the devices' time: ``start`` seconds now
+        self.epoch = time.time() - start if clock is time.monotonic else 0.0
+
+    def _plug(self, i: int) -> None:
+        master, slave = pty.openpty()
+        tty.setraw(slave)
+        os.set_blocking(master, False)
+        self.masters[i], self.slaves[i] = master, slave
+        link = self.links[i]
+        if link is None:
+            self.paths[i] = os.ttyname(slave)
+        else:
+            if os.path.islink(link):
+                os.unlink(link)
+            os.symlink(os.ttyname(slave), link)
+            self.paths[i] = link
+        self.plugged[i] = True
+
+    def unplug(self, i: int = 0) -> None:
+        """Device ``i`` is unplugged: its pseudo-terminal closes (a driver reading it gets
+        an input/output error) and its link disappears."""
+        with self._lock:
+            if not self.plugged[i]:
+                return
+            self.plugged[i] = False
+            for fd in (self.masters[i], self.slaves[i]):
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+            link = self.links[i]
+            if link is not None and os.path.islink(link):
+                os.unlink(link)
+
+    def replug(self, i: int = 0, device: Device | None = None) -> str:
+        """Device ``i`` is plugged back in, at the same link (it needs ``links``); with
+        ``device``, that device stands in for it (one that lost power starts afresh).
+        Returns the path."""
+        if self.links[i] is None:
+            raise ValueError("replugging at the same path needs a link (PtyServer(links=...))")
+        with self._lock:
+            if device is not None:
+                self.devices[i] = device
+            if not self.plugged[i]:
+                self._plug(i)
+            return self.paths[i]
 
     @property
     def device(self) -> Device:
@@ -374,14 +440,20 @@ class PtyServer:
 
     def serve(self) -> None:
         """Run until :meth:`stop` (the command line runs this in the foreground)."""
-        channels = list(zip(self.devices, self.masters, strict=True))
-        by_fd = {master: device for device, master in channels}
         while not self._stop.is_set():
+            with self._lock:
+                channels = [(d, m) for d, m, up in zip(self.devices, self.masters,
+                                                        self.plugged, strict=True) if up]
+                unplugged = [d for d, up in zip(self.devices, self.plugged, strict=True)
+                             if not up]
+            by_fd = {master: device for device, master in channels}
             now = self.now()
-            dues = [d.next_due() for d in self.devices]
+            for device in unplugged:
+                device.read(now)  # a device without its cable still runs (and is not heard)
+            dues = [d.next_due() for d, _ in channels]
             wait = min([0.002] + [max(t - now, 0.0) for t in dues if t is not None])
             try:
-                readable, _, _ = select.select(self.masters, [], [], wait)
+                readable, _, _ = select.select(list(by_fd), [], [], wait)
                 now = self.now()
                 for master in readable:
                     data = os.read(master, 4096)
@@ -394,7 +466,7 @@ class PtyServer:
             except OSError:
                 if self._stop.is_set():
                     return
-                time.sleep(0.01)  # nobody on the other side right now
+                time.sleep(0.01)  # nobody on the other side right now, or just unplugged
 
     def _write(self, master: int, data: bytes) -> None:
         """Hand bytes to the host's side; what its full buffer cannot take is lost, as with
@@ -421,11 +493,8 @@ class PtyServer:
     def stop(self) -> None:
         """Stop serving and close the ports: to a driver, the devices are unplugged."""
         self.freeze()
-        for fd in self.masters + self.slaves:
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+        for i in range(len(self.devices)):
+            self.unplug(i)
 
     def __enter__(self) -> PtyServer:
         return self.start()

@@ -7,11 +7,20 @@ sequence bits, and follows §1.9: a bad header CRC with its address → status 0
 before write access (07.00) → 06; an unknown index → 04. The velocity command drives the
 backend's wheel (the position register counts its encoder) only while the bridge is
 enabled.
+
+The communication watchdog (``04.01``, ms, 0 = off): every frame a drive takes (its address,
+both CRCs good) feeds it; a drive that hears nothing for that long faults — the comms
+error latched in ``02.02`` (bit 10, libamc's ``AMC_SS_COMMERR``), the bridge inhibited and
+the wheel stopped at that instant (``backend.at``), and the bridge cannot be enabled again
+until the latched events are reset (``01.00`` bit 12). ``watchdog_expired_at`` keeps when.
+This response is the kit's reading of §1.7's "the drive faults if the host stops talking"
+(**[inferred]**; real drives set it in their configuration).
 """
 
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import Any
 
 from hardware.emulators.backends import IdealWheels
@@ -22,6 +31,7 @@ from kit.drivers.dpralte import UNITS_PER_COUNT_PER_SECOND, int32_words
 __all__ = ["DpralteBusEmulator"]
 
 KNOWN_INDICES = {0x01, 0x02, 0x04, 0x05, 0x07, 0x0B, 0x10, 0x11, 0x12, 0x3C, 0x45, 0x8C}
+COMMS_ERROR = 1 << 10
 
 
 def reply_frame(control: int, status: int, data: bytes = b"") -> bytes:
@@ -42,10 +52,20 @@ class _Drive:
                                                   (0x02, 0x01): 0x0000, (0x02, 0x02): 0x0000,
                                                   (0x04, 0x01): 0x0000}
         self.access = False
+        self.heard = 0.0  # when a frame last fed the watchdog
+        self.watchdog_expired_at: float | None = None
 
     @property
     def enabled(self) -> bool:
         return not self.words.get((0x01, 0x00), 1) & 0x0001
+
+    @property
+    def watchdog_timeout(self) -> float:
+        return self.words.get((0x04, 0x01), 0) / 1000.0
+
+    @property
+    def watchdog_deadline(self) -> float:
+        return self.heard + self.watchdog_timeout
 
 
 class DpralteBusEmulator(Device):
@@ -66,6 +86,26 @@ class DpralteBusEmulator(Device):
 
     def error_reply(self, reply: bytes) -> bytes | None:
         return reply_frame(reply[2], 0x02)  # "command incomplete"
+
+    def stream(self, now: float) -> None:
+        self.backend.advance(now)  # runs a watchdog that ran out before now, at its time
+        for drive in self.drives.values():
+            self._check_watchdog(drive, now)
+
+    def _heard(self, drive: _Drive, now: float) -> None:
+        drive.heard = now
+        if drive.watchdog_timeout > 0 and hasattr(self.backend, "at"):
+            self.backend.at(drive.watchdog_deadline, partial(self._check_watchdog, drive))
+
+    def _check_watchdog(self, drive: _Drive, now: float) -> None:
+        if drive.watchdog_timeout <= 0 or now < drive.watchdog_deadline or \
+                drive.words[(0x02, 0x02)] & COMMS_ERROR:
+            return
+        drive.words[(0x02, 0x02)] |= COMMS_ERROR
+        drive.words[(0x01, 0x00)] |= 0x0001  # bridge inhibited
+        drive.words[(0x02, 0x00)] = 0
+        drive.watchdog_expired_at = drive.watchdog_deadline
+        self._command_wheel(drive)
 
     def _counts(self, drive: _Drive) -> int:
         angle = self.backend.wheel_angle(drive.wheel) * self.wheel_signs[drive.wheel]
@@ -116,6 +156,9 @@ class DpralteBusEmulator(Device):
             del buf[:size]
             drive = self.drives.get(address)
             if drive is not None:
+                self.backend.advance(now)
+                self._check_watchdog(drive, now)  # (ran out before this frame came)
+                self._heard(drive, now)
                 self._handle(drive, frame, now)
 
     def _handle(self, drive: _Drive, frame: bytes, now: float) -> None:
@@ -141,11 +184,16 @@ class DpralteBusEmulator(Device):
                 value = drive.words[(0x01, 0x00)]
                 if value & 0x1000:  # reset latched events
                     drive.words[(0x02, 0x01)] = drive.words[(0x02, 0x02)] = 0
-                drive.words[(0x02, 0x00)] = 0 if value & 0x0001 else 0x0001
+                if drive.words[(0x02, 0x01)] or drive.words[(0x02, 0x02)]:
+                    drive.words[(0x01, 0x00)] |= 0x0001  # a latched fault keeps it off
+                drive.words[(0x02, 0x00)] = 0 if drive.words[(0x01, 0x00)] & 0x0001 else 0x0001
+            if (index, offset) == (0x04, 0x01):
+                self._heard(drive, now)  # the new time-out counts from now
             self._command_wheel(drive)
             self.send(reply_frame(control, 0x01), now)
             return
         if (index, offset) == (0x12, 0x00):
+            self.event(f"position{drive.address:02X}", now)
             data = int32_words(self._counts(drive))
         elif (index, offset) == (0x11, 0x02):
             data = int32_words(self._velocity_units(drive))

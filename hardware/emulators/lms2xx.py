@@ -180,6 +180,7 @@ class LMS2xxEmulator(Device):
         period = max(interlace / 75.0, 10.0 * (2 * n + 10) / self.baudrate)
         while self._next_scan <= now:
             self.backend_advance(self._next_scan)
+            self.event("scan", self._next_scan)  # measured, then sent
             self.send(self._scan_telegram(), self._next_scan, reply=False)
             self._next_scan += period
             if now - self._next_scan > 1.0:  # nobody read for a long time: do not backlog

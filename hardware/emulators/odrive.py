@@ -3,15 +3,25 @@
 Two axes, each with the state machine a driver meets: IDLE at power-up, a full calibration
 (requested state 3) that takes ``calibration_time`` seconds before the axis is calibrated
 and back in IDLE, closed loop (8) refused with ``AXIS_ERROR_INVALID_STATE`` until then,
-velocity commands that move the wheel only in closed loop, and an optional watchdog. The
-encoder is the backend's wheel through the gearbox, quantised at the encoder's CPR. Replies
-follow the firmware: no echo, ``\\r\\n`` line ends, checksums only when asked, ``r`` values
-cut to 9 characters, a bad checksum dropped silently.
+velocity commands that move the wheel only in closed loop, and the watchdog. The encoder is
+the backend's wheel through the gearbox, quantised at the encoder's CPR. Replies follow the
+firmware: no echo, ``\\r\\n`` line ends, checksums only when asked, ``r`` values cut to 9
+characters, a bad checksum dropped silently.
+
+The watchdog runs as in firmware 0.5.x (``Axis::watchdog_feed``/``watchdog_check``): a feed
+(``v``, ``p``, ``q``, ``c``, ``t``, ``u``, entering closed loop) reloads the counter with
+the time-out in force then; while ``config.enable_watchdog`` is set the counter runs down in
+every state, and when it runs out the axis gets ``WATCHDOG_TIMER_EXPIRED`` (0x800), its
+motor is disarmed and it falls to IDLE — at that instant, whoever moves the world on
+(``backend.at``) — and the error comes back at once after ``sc`` until the watchdog is fed.
+Enabling it without a feed after power-up (the counter holds 0) stops the axis at once, as
+the firmware does. ``watchdog_expired_at`` keeps when each axis was stopped.
 """
 
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import Any
 
 from hardware.emulators.backends import IdealWheels
@@ -40,6 +50,8 @@ class _Axis:
         self.calibration_done_at: float | None = None
         self.watchdog_timeout = 0.0
         self.watchdog_enabled = False
+        self.watchdog_deadline = 0.0  # when the counter, last reloaded by a feed, runs out
+        self.watchdog_expired_at: float | None = None
         self.last_feed = 0.0
 
 
@@ -97,17 +109,40 @@ class ODriveEmulator(Device):
 
     # ------------------------------------------------------------------ the motors
     def _update(self, now: float) -> None:
-        self.backend.advance(now)
+        self.backend.advance(now)  # runs any watchdog that ran out before now, at its time
         for axis in self.axes:
             if axis.current_state == FULL_CALIBRATION and axis.calibration_done_at is not None \
                     and now >= axis.calibration_done_at:
                 axis.calibrated = True
                 axis.current_state = IDLE
                 axis.calibration_done_at = None
-            if axis.current_state == CLOSED_LOOP and axis.watchdog_enabled and \
-                    axis.watchdog_timeout > 0 and now - axis.last_feed > axis.watchdog_timeout:
-                axis.error |= ERROR_WATCHDOG
-                self._enter(axis, IDLE, now)
+            self._check_watchdog(axis, now)
+
+    def stream(self, now: float) -> None:
+        self._update(now)  # the firmware's control loop runs whether or not a host talks
+
+    def _feed(self, axis: _Axis, now: float) -> None:
+        axis.last_feed = now
+        axis.watchdog_deadline = now + axis.watchdog_timeout
+        self._arm(axis)
+
+    def _arm(self, axis: _Axis) -> None:
+        """Have the backend stop the axis at the instant its watchdog runs out."""
+        if axis.watchdog_enabled and hasattr(self.backend, "at"):
+            self.backend.at(axis.watchdog_deadline, partial(self._check_watchdog, axis))
+
+    def _check_watchdog(self, axis: _Axis, now: float) -> None:
+        if not axis.watchdog_enabled or now < axis.watchdog_deadline or \
+                axis not in self.axes:  # (an axis from before a reboot)
+            return
+        first = not axis.error & ERROR_WATCHDOG
+        axis.error |= ERROR_WATCHDOG
+        if axis.current_state != IDLE or axis.calibration_done_at is not None:
+            axis.calibration_done_at = None
+            axis.current_state = IDLE  # motor disarmed: the state machine falls to IDLE
+            self._wheel_command(axis)
+        if first:
+            axis.watchdog_expired_at = axis.watchdog_deadline
 
     def _wheel_command(self, axis: _Axis) -> None:
         turns = axis.input_vel if (axis.current_state == CLOSED_LOOP and
@@ -125,7 +160,7 @@ class ODriveEmulator(Device):
         elif state == CLOSED_LOOP:
             if axis.calibrated and not axis.error:
                 axis.current_state = CLOSED_LOOP
-                axis.last_feed = now
+                self._feed(axis, now)  # the firmware feeds on entering closed loop
             else:
                 axis.error |= ERROR_INVALID_STATE
                 axis.current_state = IDLE
@@ -253,8 +288,9 @@ class ODriveEmulator(Device):
             if isinstance(axis, str):
                 return [axis]
             if cmd == "f":
+                self.event(f"feedback{axis.index}", now)
                 return [f"{self.position(axis):f} {self.velocity(axis):f}"]
-            axis.last_feed = now
+            self._feed(axis, now)
             if cmd == "u":
                 return []
             if len(args) < 2:
@@ -293,11 +329,15 @@ class ODriveEmulator(Device):
                 self._wheel_command(axis)
             else:
                 prop[1](args[1])
+                if args[0].endswith("config.enable_watchdog"):
+                    self._arm(axis)
+                    self._check_watchdog(axis, now)  # enabled with a spent counter
                 self._wheel_command(axis)
             return []
         if cmd == "sc":
             for axis in self.axes:
                 axis.error = 0
+                self._check_watchdog(axis, now)  # a spent watchdog sets it again at once
             return []
         if cmd in ("ss", "se"):
             return []

@@ -140,6 +140,7 @@ class Os5000Emulator(Device):
         while self._next <= now:
             self.send(sentence(self.body(self._next)), self._next, reply=False)
             self.sentences_sent += 1
+            self.event("sentence", self._next)
             self._next += period
             if now - self._next > 1.0:
                 self._next = now

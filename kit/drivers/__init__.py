@@ -10,9 +10,12 @@ motors, kinematics and odometry together (``UiabotBase``, ``IgvBase``). Check co
 (the device's default rate), and ``clock`` and ``sleep`` callables so that it can run on an
 emulator's logical clock; messages are stamped with the wall clock on a real port.
 
-Live use: :mod:`~kit.drivers.reader` runs a driver in its own thread,
-:mod:`~kit.drivers.live` opens each device as a message source, :mod:`~kit.drivers.probe`
-finds which device answers on a port (``kit probe``, ``kit record``).
+Live use: :mod:`~kit.drivers.reader` runs a driver in its own thread (reopening its device
+after an unplug), :mod:`~kit.drivers.live` opens each device as a message source,
+:mod:`~kit.drivers.probe` finds which device answers on a port (``kit probe``, ``kit
+record``), :mod:`~kit.drivers.timing` dates samples by a device's own pace. Safety: the bases
+arm the motor controllers' watchdogs, :mod:`~kit.drivers.safety` stops every base on the
+program's way out, :mod:`~kit.drivers.stop` is ``kit stop``.
 """
 
 from kit.drivers.errors import (

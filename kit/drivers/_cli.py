@@ -1,12 +1,17 @@
-"""``kit record`` and ``kit probe``: a live robot's devices from the command line.
+"""``kit record``, ``kit probe`` and ``kit stop``: a live robot's devices from the command
+line.
 
     kit probe /dev/ttyUSB0                       which device answers, at which rate
     kit record rplidar=/dev/ttyUSB0 bno055=/dev/ttyUSB1 odrive=/dev/ttyACM0 \\
         --robot uiabot --duration 60 --out run1  an MCAP bag of a live session
+    kit stop /dev/ttyACM0                        stop the motors on that port, now
 
 A port given without ``DEVICE=`` is probed first. The bag holds each device's topics
-(:mod:`kit.drivers.live`) stamped with the wall clock, and ``/tf_static`` from the robot's
-URDF; it opens in ``ros2 bag``, Foxglove and the labs (:func:`kit.bag.read_bag`).
+(:mod:`kit.drivers.live`), each message stamped with when its data was measured (wall
+clock), and ``/tf_static`` from the robot's URDF; it opens in ``ros2 bag``, Foxglove and
+the labs (:func:`kit.bag.read_bag`). A device whose port fails (unplugged) is reopened on
+its own, with a back-off, and the outage is reported in the summary and kept in the bag's
+``metadata.yaml`` (``custom_data``). The rates printed are computed from the stamps.
 """
 
 from __future__ import annotations
@@ -15,7 +20,9 @@ import argparse
 import math
 import queue
 import sys
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -55,9 +62,17 @@ _TOPICS = {"rplidar": ["/scan"], "lms2xx": ["/scan"], "bno055": ["/imu"], "os500
 
 
 def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "uiabot",
-           duration: float = math.inf, log: Any = print) -> dict[str, int]:
+           duration: float = math.inf, log: Any = print,
+           on_message: Callable[[str, int, Any], None] | None = None,
+           stop: threading.Event | None = None) -> dict[str, int]:
     """Record ``(device, port, baud)`` sources into a new MCAP bag at ``out`` for
-    ``duration`` seconds (or until Ctrl-C); returns the messages written per topic.
+    ``duration`` seconds (or until Ctrl-C, or until ``stop`` is set); returns the messages
+    written per topic.
+
+    Every message goes through one place, in the order written: the bag, the counts, and
+    ``on_message(topic, time_ns, message)`` if given (a live view). A device whose port
+    fails is reopened in its reader (:class:`~kit.drivers.reader.Reader`) and its outage
+    noted.
 
     Raises
     ------
@@ -76,60 +91,89 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
         raise FileExistsError(f"{out} exists; a bag is written to a new folder")
     description = load(robot)
     sources = []
+    readers: list[Any] = []
+    q: queue.Queue[Any] = queue.Queue()
     try:
-        for device, port, baud in specs:
-            sources.append(open_source(device, port, description, baud))
-            log(f"{device} on {port}: {sources[-1].description}")
-        renames = _topics([s.device for s in sources], [_TOPICS[s.device] for s in sources])
-        q: queue.Queue[Any] = queue.Queue()
+        # each device is read from the moment it starts (a lidar streams at once: left
+        # unread while the others start, its port would overflow)
+        renames = _topics([d for d, _, _ in specs], [_TOPICS[d] for d, _, _ in specs])
+        for (device, port, baud), names in zip(specs, renames, strict=True):
+            src = open_source(device, port, description, baud)
+            sources.append(src)
+            log(f"{device} on {port}: {src.description}")
+            readers.append(Reader(src.device, _renamed(src.read, names), q, src.period,
+                                  on_error=_failed(src.device, log), reopen=src.reopen).start())
         counts: dict[str, int] = {}
         first: dict[str, int] = {}
         last: dict[str, int] = {}
+        disorder: dict[str, int] = {}
         with BagWriter(out) as bag:
+
+            def write(topic: str, time_ns: int, message: Any) -> None:
+                bag.write(topic, message, time_ns)
+                counts[topic] = counts.get(topic, 0) + 1
+                first.setdefault(topic, time_ns)
+                if topic in last and time_ns <= last[topic]:
+                    disorder[topic] = disorder.get(topic, 0) + 1
+                last[topic] = max(time_ns, last.get(topic, time_ns))
+                if on_message is not None:
+                    on_message(topic, time_ns, message)
+
             start = time.time()
             stamp = msgs.Time.from_sec(start)
-            bag.write("/tf_static", msgs.TFMessage(description.static_transforms(stamp)),
-                      stamp.to_nsec())
-            counts["/tf_static"] = 1
-            readers = [Reader(src.device, _renamed(src.read, names), q, src.period).start()
-                       for src, names in zip(sources, renames, strict=True)]
+            write("/tf_static", stamp.to_nsec(),
+                  msgs.TFMessage(description.static_transforms(stamp)))
             end = time.monotonic() + duration
 
             def drain(wait: float) -> None:
                 try:
                     while True:
-                        topic, time_ns, message = q.get(timeout=wait)
-                        bag.write(topic, message, time_ns)
-                        counts[topic] = counts.get(topic, 0) + 1
-                        first.setdefault(topic, time_ns)
-                        last[topic] = time_ns
+                        write(*q.get(timeout=wait))
                         wait = 0.0
                 except queue.Empty:
                     pass
 
             try:
-                while time.monotonic() < end and any(r.alive for r in readers):
+                while time.monotonic() < end and any(r.alive for r in readers) and \
+                        not (stop is not None and stop.is_set()):
                     drain(0.05)
             except KeyboardInterrupt:
                 log("stopped (Ctrl-C)")
             for r in readers:
                 r.stop()
             drain(0.0)
+            gaps = [g for r in readers for g in r.gaps]
+            if gaps:
+                bag.custom_data("kit_record.gaps", "; ".join(
+                    f"{g.device} {g.start}..{'' if g.end is None else g.end} ns" for g in gaps))
+                bag.custom_data("kit_record.gap_reasons",
+                                "; ".join(g.describe() for g in gaps))
         elapsed = max(time.time() - start, 1e-9)
         for r in readers:
+            for g in r.gaps:
+                log(f"gap: {g.describe()}")
             if r.error is not None:
                 log(f"{r.name}: stopped early: {r.error}")
             elif r.timeouts or r.errors:
                 log(f"{r.name}: {r.timeouts} reads timed out, {r.errors} bad frames skipped")
         for topic, n in sorted(counts.items()):
             span = (last.get(topic, 0) - first.get(topic, 0)) * 1e-9
-            rate = f"{(n - 1) / span:8.1f} Hz" if n > 1 and span > 0 else ""
-            log(f"  {topic:24s}{n:8d} messages  {rate}")
-        log(f"wrote {out} ({sum(counts.values())} messages, {elapsed:.1f} s)")
+            rate = f"{(n - 1) / span:8.2f} Hz" if n > 1 and span > 0 else ""
+            out_of_order = f"  ({disorder[topic]} stamps out of order)" if topic in disorder \
+                else ""
+            log(f"  {topic:24s}{n:8d} messages  {rate}{out_of_order}")
+        log(f"wrote {out} ({sum(counts.values())} messages, {elapsed:.1f} s; rates from the "
+            f"messages' stamps)")
         return counts
     finally:
+        for r in readers:
+            r.stop()
         for s in sources:
             s.close()
+
+
+def _failed(name: str, log: Any) -> Callable[[BaseException], None]:
+    return lambda exc: log(f"{name}: {exc}; reopening it when it is back")
 
 
 def _renamed(read: Any, names: dict[str, str]) -> Any:
@@ -185,8 +229,27 @@ def _record(args: argparse.Namespace) -> int:
     return 0
 
 
+def _stop(args: argparse.Namespace) -> int:
+    from kit.drivers.errors import DriverError
+    from kit.drivers.stop import stop_motors
+
+    worst = 0
+    for text in args.ports:
+        try:
+            device, port, baud = _port_spec(text)
+            report = stop_motors(port, device, baud, timeout=args.timeout)
+        except (DriverError, ValueError) as exc:
+            print(f"kit stop: {exc}", file=sys.stderr)
+            worst = max(worst, 2 if isinstance(exc, ValueError) else 1)
+            continue
+        print(report)
+        if not report.confirmed:
+            worst = max(worst, 1)
+    return worst
+
+
 def register(subparsers: Any) -> None:
-    """Add ``kit probe`` and ``kit record``."""
+    """Add ``kit probe``, ``kit record`` and ``kit stop``."""
     p = subparsers.add_parser("probe", help="which device answers on a serial port")
     p.add_argument("port", help="/dev/ttyUSB0, /dev/ttyACM0, a pseudo-terminal, a pyserial URL")
     p.add_argument("--timeout", type=float, default=0.2, help="seconds per try (0.2)")
@@ -203,3 +266,13 @@ def register(subparsers: Any) -> None:
     p.add_argument("--duration", type=float, default=None,
                    help="seconds to record (default: until Ctrl-C)")
     p.set_defaults(func=_record)
+    p = subparsers.add_parser(
+        "stop", help="stop a robot's motors now (from another terminal)",
+        description="Zero speed and motors off on each port: the ODrive's axes to IDLE, the "
+                    "DPRALTE drives' bridges inhibited, read back. PORT is DEVICE=PATH[@BAUD] "
+                    "(DEVICE: odrive, dpralte) or a PATH to probe. A port another program "
+                    "holds is shared for the stop. Exit 0 when every port's motors were read "
+                    "back stopped.")
+    p.add_argument("ports", nargs="+", metavar="PORT")
+    p.add_argument("--timeout", type=float, default=0.3, help="seconds per reply (0.3)")
+    p.set_defaults(func=_stop)

@@ -3,8 +3,16 @@ quaternion, gyroscope and acceleration readings turned into a ROS ``Imu``.
 
 Frames: write ``AA 00 reg len data`` → ``EE 01``; read ``AA 01 reg len`` → ``BB len data``
 or ``EE status``. There is no checksum, so the driver checks what it can (start byte,
-length) and resends on ``EE 07`` (bus over-run, normal while fusion starts) and on
-garbage. The heading (clockwise from north, degrees) becomes REP-103 yaw once, here:
+length, a status the chip has) and resends on ``EE 07`` (bus over-run, normal while fusion
+starts) and on garbage. Two failures stay apart: the chip **refusing** a request (``EE``
+with one of its statuses, such as ``05`` for a read-only register) is a
+:class:`~kit.drivers.errors.DeviceError` with the chip's code, while replies **garbled**
+on the line (``EE`` followed by a status the chip does not have, a reply of the wrong kind
+or length) are resent and, if they never come right, a
+:class:`~kit.drivers.errors.ProtocolError`. The first request after a power-up or after
+an earlier program left a frame half sent can fail: the chip answers ``EE 0A`` (receive
+character time-out) or nothing, and the request is resent, so :meth:`BNO055.begin` gets
+through. The heading (clockwise from north, degrees) becomes REP-103 yaw once, here:
 ``yaw = π/2 − heading``. Facts and vectors: ``protocols.md`` §5.
 """
 
@@ -19,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from kit import msgs
-from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError
+from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError, failed_twice
 from kit.drivers.port import Link
 from kit.geometry import wrap_angle
 
@@ -148,53 +156,68 @@ class BNO055:
         self.retries = retries
         self.frame_id = frame_id
         self.retried = 0
+        self.mode: str | None = None
+        self._wanted: str | None = None
+        self.last_exchange = (0.0, 0.0)
 
     # ------------------------------------------------------------------ transactions
     def _transact(self, request: bytes, what: str) -> bytes | int:
         link = self.link
-        link.clear(what)
-        link.write(request, what)
-        deadline = link.clock() + self.timeout
-        buffer = bytearray()
-        while True:
-            reply = decode_reply(buffer)
-            while reply is not None and reply[1] == -1:
-                del buffer[:reply[0]]
+        with link.lock:
+            link.clear(what)
+            sent = link.stamp()
+            link.write(request, what)
+            deadline = link.clock() + self.timeout
+            buffer = bytearray()
+            while True:
                 reply = decode_reply(buffer)
-            if reply is not None:
-                return reply[1]
-            if link.clock() >= deadline:
-                raise DeviceTimeout(DEVICE, f"{what}: no reply within {self.timeout:g} s")
-            buffer += link.read_some(what)
+                while reply is not None and reply[1] == -1:
+                    del buffer[:reply[0]]
+                    reply = decode_reply(buffer)
+                if reply is not None:
+                    self.last_exchange = (sent, link.stamp())
+                    return reply[1]
+                if link.clock() >= deadline:
+                    raise DeviceTimeout(DEVICE, f"{what}: no reply within {self.timeout:g} s")
+                buffer += link.read_some(what)
 
     def _retrying(self, request: bytes, what: str, expect: int | None) -> bytes | int:
-        last, code = "no reply", 0
+        """Send ``request`` until its reply comes: data of ``expect`` bytes for a read,
+        ``EE 01`` for a write (``expect`` None). Retried: no reply, the chip's "try again"
+        statuses (:data:`RETRY`), garbled replies. Raised at once: the chip's refusals."""
+        last, code, garbled = "no reply", 0, False
         for attempt in range(self.retries + 1):
             if attempt:
                 self.retried += 1
             try:
                 reply = self._transact(request, what)
             except DeviceTimeout:
-                last, code = "no reply", 0
+                last, code, garbled = "no reply", 0, False
                 continue
             if isinstance(reply, int):
                 if reply == 0x01 and expect is None:
                     return reply
-                if reply in RETRY:
-                    last, code = STATUS[reply], reply
-                    continue
-                raise DeviceError(DEVICE, f"{what}: {STATUS.get(reply, 'unknown status')} "
-                                          f"(0x{reply:02X})", reply)
+                if reply not in STATUS or reply == 0x01:
+                    # a status the chip does not have (or a write's "success" to a read)
+                    last, code, garbled = f"a garbled reply (EE {reply:02X})", 0, True
+                elif reply in RETRY:
+                    last, code, garbled = STATUS[reply], reply, False
+                else:
+                    raise DeviceError(DEVICE, f"{what}: the chip refused: {STATUS[reply]} "
+                                              f"(0x{reply:02X})", reply)
+                continue
             if expect is not None and len(reply) == expect:
                 return reply
-            last, code = f"{len(reply)} bytes instead of {expect}", 0
+            shape = f"{len(reply)} data bytes" + (f" instead of {expect}" if expect else
+                                                  " to a write")
+            last, code, garbled = f"a garbled reply ({shape})", 0, True
+        tries = f"after {self.retries + 1} tries"
         if last == "no reply":
-            raise DeviceTimeout(DEVICE, f"{what}: no reply after {self.retries + 1} tries "
-                                        f"({self.timeout:g} s each)")
-        if code:
-            raise DeviceError(DEVICE, f"{what}: {last} (0x{code:02X}) after {self.retries + 1} "
-                                      f"tries", code)
-        raise ProtocolError(DEVICE, f"{what}: {last} after {self.retries + 1} tries")
+            raise DeviceTimeout(DEVICE, f"{what}: no reply {tries} ({self.timeout:g} s each)")
+        if garbled:
+            raise ProtocolError(DEVICE, f"{what}: {last} {tries}: line noise, or another "
+                                        f"device or baud rate on this port")
+        raise DeviceError(DEVICE, f"{what}: {last} (0x{code:02X}) {tries}", code)
 
     def read_registers(self, register: int, length: int, what: str = "") -> bytes:
         reply = self._retrying(encode_read(register, length),
@@ -212,9 +235,30 @@ class BNO055:
         self.write_register(OPR_MODE, value, f"set mode {mode}")
         self.link.sleep(0.02 if value == 0 else 0.01)
 
+    def connect(self, pause: float = 0.05) -> int:
+        """Read CHIP_ID (the spec's "retry once: the first command after power-up can
+        fail"): a frame an earlier program left unfinished in the chip's receiver merges
+        with the first request (whose answer can even be a refusal of the merged frame), so
+        a first exchange that fails in any way is tried once more after ``pause`` seconds of
+        silence, longer than the chip's receive character time-out, which abandons any
+        partial frame. Returns the chip id."""
+        try:
+            return self.read_registers(CHIP_ID, 1, "read chip id")[0]
+        except (DeviceTimeout, DeviceError, ProtocolError) as exc:
+            if self.link.failure is not None:
+                raise
+            first = exc
+        self.link.sleep(pause)
+        try:
+            return self.read_registers(CHIP_ID, 1, "read chip id")[0]
+        except (DeviceTimeout, DeviceError, ProtocolError) as exc:
+            raise failed_twice(exc, first) from None
+
     def begin(self, mode: str = "NDOF", fusion_timeout: float = 1.0) -> None:
         """Chip id → CONFIG → normal power, page 0, default units → ``mode`` → fusion on."""
-        chip = self.read_registers(CHIP_ID, 1, "read chip id")[0]
+        self.mode = None
+        self._wanted = mode
+        chip = self.connect()
         if chip != 0xA0:
             raise ProtocolError(DEVICE, f"chip id 0x{chip:02X} is not a BNO055's 0xA0")
         self.set_mode("CONFIG")
@@ -230,6 +274,14 @@ class BNO055:
                     raise DeviceTimeout(DEVICE, f"fusion not running {fusion_timeout:g} s after "
                                                 f"switching to {mode}")
                 self.link.sleep(0.01)
+        self.mode = mode
+
+    def reopen(self) -> None:
+        """Open the port again after it failed (the chip unplugged and back, so reset to
+        CONFIG mode): :meth:`begin` again in the mode it was in."""
+        self.link.reopen()
+        if self._wanted is not None:
+            self.begin(self._wanted)
 
     # ------------------------------------------------------------------ readings
     def calibration(self) -> Calibration:
@@ -266,7 +318,8 @@ class BNO055:
     def read_imu(self, stamp: msgs.Time | None = None) -> msgs.Imu:
         """One ``Imu`` message: orientation from the fused Euler angles (heading converted
         to REP-103 yaw), gyroscope rates, and the acceleration gravity included (REP-145),
-        from one block read of 0x08–0x33."""
+        from one block read of 0x08–0x33, stamped in the middle of the exchange that read
+        it (the chip sampled it between request and reply)."""
         d = self.read_registers(ACC_DATA, 0x34 - ACC_DATA, "read data block")
         heading, roll, pitch = (_s16(d, 9 + i) / 16.0 for i in range(3))
         yaw = heading_to_yaw(heading)
@@ -280,7 +333,8 @@ class BNO055:
                                       w=cr * cp * cy + sr * sp * sy)
         gyro = [math.radians(_s16(d, 6 + i) / 16.0) for i in range(3)]
         accel = [_s16(d, i) / 100.0 for i in range(3)]
-        t = stamp if stamp is not None else msgs.Time.from_sec(self.link.stamp())
+        sent, answered = self.last_exchange
+        t = stamp if stamp is not None else msgs.Time.from_sec(0.5 * (sent + answered))
         return msgs.Imu(
             header=msgs.Header(t, self.frame_id), orientation=orientation,
             orientation_covariance=np.diag([0.0025] * 3).ravel(),

@@ -15,7 +15,7 @@
 from __future__ import annotations
 
 __all__ = ["ChecksumError", "DeviceError", "DeviceTimeout", "DriverError", "PortError",
-           "ProtocolError"]
+           "ProtocolError", "failed_twice"]
 
 
 class DriverError(Exception):
@@ -54,3 +54,17 @@ class DeviceError(DriverError):
     def __init__(self, device: str, message: str, code: int) -> None:
         super().__init__(device, message)
         self.code = code
+
+
+def failed_twice(second: DriverError, first: DriverError) -> DriverError:
+    """``second`` again (same class, device and code), its message also saying how the first
+    try failed: what a driver raises when a retried first exchange fails again."""
+    prefix = f"{second.device}: "
+    text = str(second)[len(prefix):] if str(second).startswith(prefix) else str(second)
+    before = str(first).split(": ", 1)[-1]
+    message = f"{text} (twice; the first time: {before})"
+    if isinstance(second, DeviceError):
+        return DeviceError(second.device, message, second.code)
+    if isinstance(second, PortError):
+        return PortError(second.device, message, second.errno)
+    return type(second)(second.device, message)

@@ -14,7 +14,9 @@ device        messages                                                read
 ============  ======================================================  ===============
 
 Nothing here moves a motor: the motor controllers are only read (their encoders count in
-IDLE and with the bridges off).
+IDLE and with the bridges off). Every source can ``reopen()`` its device after the port
+failed (the device unplugged and back): the same driver object opens the same path again
+and starts the device as :func:`open_source` did.
 """
 
 from __future__ import annotations
@@ -37,13 +39,15 @@ DEVICES = ("rplidar", "bno055", "odrive", "os5000", "lms2xx", "dpralte")
 @dataclass
 class Source:
     """One started device: ``read()`` gives ``(topic, message)`` pairs; ``period`` [s] is
-    how often to poll it (0 for a device that streams); ``close()`` stops it."""
+    how often to poll it (0 for a device that streams); ``close()`` stops it; ``reopen()``
+    brings it back after its port failed (raising while it is not back)."""
 
     device: str
     read: Callable[[], list[tuple[str, msgs.Message]]]
     period: float
     close: Callable[[], None]
     description: str
+    reopen: Callable[[], Any] | None = None
 
 
 def _wheels(base: Any) -> Callable[[], list[tuple[str, msgs.Message]]]:
@@ -87,31 +91,33 @@ def open_source(device: str, port: Any, robot: str | RobotDescription = "uiabot"
         lidar = rplidar.RPLidar(port, **waits, **rate)
         lidar.start()
         return Source(device, lambda: [("/scan", lidar.read_scan())], 0.0,
-                      _closing(lidar.stop, lidar.close), "RPLidar, standard scan")
+                      _closing(lidar.stop, lidar.close), "RPLidar, standard scan", lidar.reopen)
     if device == "lms2xx":
         scanner = lms2xx.LMS2xx(port, **waits, **rate)
         scanner.connect(38400, 180, 1.0)
         scanner.start()
         return Source(device, lambda: [("/scan", scanner.read_scan())], 0.0,
-                      _closing(scanner.stop, scanner.close), "LMS2xx at 38400 baud, 180°/1°")
+                      _closing(scanner.stop, scanner.close), "LMS2xx at 38400 baud, 180°/1°",
+                      scanner.reopen)
     if device == "bno055":
         imu = bno055.BNO055(port, **waits, **rate)
         imu.begin()
         return Source(device, lambda: [("/imu", imu.read_imu())], 0.01,
-                      _closing(imu.link.close), "BNO055 in NDOF")
+                      _closing(imu.link.close), "BNO055 in NDOF", imu.reopen)
     if device == "os5000":
         compass = os5000.Os5000(port, **waits, **rate)
         return Source(device, lambda: [("/imu", compass.read_imu())], 0.0,
-                      _closing(compass.close), "OS5000 compass")
+                      _closing(compass.close), "OS5000 compass", compass.reopen)
     description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
     if device == "odrive":
         uiabot = bases.UiabotBase(odrive.ODrive(port, **waits, **rate), description, **waits)
-        uiabot.odrive.vbus_voltage()  # the link answers
+        uiabot.odrive.connect()  # the line cleared, the link answers
         return Source(device, _wheels(uiabot), 0.02, _closing(uiabot.odrive.close),
-                      f"ODrive encoders of the {description.name}")
+                      f"ODrive encoders of the {description.name}", uiabot.reopen)
     if device == "dpralte":
         igv = bases.IgvBase(port, description, clock=clock, sleep=sleep, **rate)
-        igv.read_wheels()  # both drives answer
+        for drive in igv.drives:
+            drive.connect(clear=drive is igv.right)  # the line cleared, both drives answer
         return Source(device, _wheels(igv), 0.02, _closing(igv.link.close),
-                      f"DPRALTE drives of the {description.name}")
+                      f"DPRALTE drives of the {description.name}", igv.reopen)
     raise ValueError(f"unknown device {device!r}; known: {', '.join(DEVICES)}")

@@ -10,6 +10,14 @@ vectors: ``protocols.md`` §3.
 Geometry: value ``i`` lies at ``start + i × resolution`` counter-clockwise with 0° on the
 scanner's right and 90° straight ahead, so in ``laser_link`` (x forward) the scan starts at
 ``start − 90°``: −90° … +90° for the 180° variants, −50° … +50° for the 100° ones.
+
+A scan is stamped when it was measured: the arrival of its telegram (telegrams read together
+came back to back, so each ended where the next began) less the telegram's own transmission
+time at the link's rate and the mirror's turns it took (1/75 s per turn, two for 0.5°, four
+for 0.25°); stamps increase strictly. (Telegrams that waited on the port before a read are
+dated from that read: late by as long as they waited, at most.) The first exchange at each
+rate is asked twice (a telegram an earlier program left unfinished in the scanner costs the
+first one).
 """
 
 from __future__ import annotations
@@ -234,6 +242,11 @@ class LMS2xx:
         self.unit_mm = False
         self.warnings: list[str] = []
         self._queue: list[Telegram] = []
+        self._ended: list[float] = []  # when each queued telegram's last byte came, best guess
+        self.streaming = False
+        self._connected: tuple[int, int, float] | None = None
+        self._last_stamp = -float("inf")
+        self._last_end = 0.0
 
     # ------------------------------------------------------------------ telegrams
     def _await(self, code: int, what: str, timeout: float) -> Telegram:
@@ -243,6 +256,7 @@ class LMS2xx:
         while True:
             while self._queue:
                 t = self._queue.pop(0)
+                self._last_end = self._ended.pop(0)
                 if t.command == code:
                     return t
                 if t.command == 0x92:
@@ -251,7 +265,13 @@ class LMS2xx:
                 raise ChecksumError(DEVICE, f"{what}: the scanner answered NAK")
             if link.clock() >= deadline:
                 raise DeviceTimeout(DEVICE, f"{what}: no reply within {timeout:g} s")
-            self._queue.extend(self.parser.feed(link.read_some(what)))
+            telegrams = self.parser.feed(link.read_some(what))
+            arrived, ends = link.stamp(), []
+            for t in reversed(telegrams):  # back to back: each ended as the next began
+                ends.append(arrived)
+                arrived -= 10 * (len(t.payload) + 6) / link.baudrate
+            self._queue.extend(telegrams)
+            self._ended.extend(reversed(ends))
 
     def request(self, payload: bytes, what: str, timeout: float | None = None) -> Telegram:
         """Send a request and return its checked reply (code + 0x80), trying ``tries``
@@ -263,6 +283,7 @@ class LMS2xx:
                 self.link.sleep(0.03)  # at least 30 ms after a NAK
             self.link.clear(what)
             self._queue.clear()
+            self._ended.clear()
             self.parser = TelegramParser()
             self.link.write(encode_telegram(payload), what)
             try:
@@ -298,7 +319,7 @@ class LMS2xx:
             self.link.set_baudrate(baud, "find baud rate")
             self.link.sleep(0.01)
             try:
-                tries, self.tries = self.tries, 1
+                tries, self.tries = self.tries, 2  # the first exchange, once more
                 try:
                     self.request(b"\x31", f"status at {baud} baud", timeout=0.25)
                 finally:
@@ -337,6 +358,17 @@ class LMS2xx:
         if found != baudrate:
             self.set_baudrate(baudrate)
         self.set_variant(angle, resolution)
+        self._connected = (baudrate, angle, resolution)
+
+    def reopen(self) -> None:
+        """Open the port again after it failed (the scanner unplugged and back, maybe at
+        its power-on rate) and connect and stream again as before."""
+        streaming = self.streaming
+        self.link.reopen()
+        if self._connected is not None:
+            self.connect(*self._connected)
+        if streaming:
+            self.start()
 
     def _mode(self, mode: int, what: str) -> None:
         reply = self.request(bytes([0x20, mode]), what, timeout=3.0)
@@ -346,19 +378,28 @@ class LMS2xx:
     def start(self) -> None:
         """``20 24``: stream every scan."""
         self._mode(MODE_STREAM, "start streaming")
+        self.streaming = True
 
     def stop(self) -> None:
         """``20 25``: back to monitoring mode (B0 telegrams still queued are skipped)."""
+        self.streaming = False
         self._mode(MODE_MONITOR, "stop streaming")
 
     def read_scan(self, stamp: msgs.Time | None = None) -> msgs.LaserScan:
-        """The next streamed scan (``B0``), as a ``LaserScan``."""
+        """The next streamed scan (``B0``), as a ``LaserScan`` stamped when it was measured
+        (see the module)."""
         reply = self._await(0xB0, "read scan", self.timeout)
+        arrived = self._last_end
         self._check_status(reply, "read scan")
         scan = decode_scan(reply.payload)
         self.unit_mm = scan.unit_mm
-        t = stamp if stamp is not None else msgs.Time.from_sec(self.link.stamp())
-        return scan_to_laserscan(scan, self.angle, self.resolution, t, self.frame_id)
+        scan_time = round(1.0 / self.resolution) / 75.0
+        sent = 10 * (len(reply.payload) + 6) / self.link.baudrate  # the frame and its CRC
+        measured = max(arrived - sent - scan_time, self._last_stamp + 1e-6)
+        self._last_stamp = measured
+        t = stamp if stamp is not None else msgs.Time.from_sec(measured)
+        return scan_to_laserscan(scan, self.angle, self.resolution, t, self.frame_id,
+                                 scan_time)
 
     def close(self) -> None:
         self.link.close()

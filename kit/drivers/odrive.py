@@ -3,8 +3,21 @@ feedback, optional checksums and the axis states of each firmware version.
 
 A request is one line (``r vbus_voltage``, ``v 0 1.5``, ``f 0``); replies are lines ending
 in ``\\r\\n``. With ``checksum=True`` every request carries ``*<decimal XOR>`` and every
-reply must carry a correct one, so a corrupted reply is rejected rather than believed.
-Units are turns and turns/s (0.5.x). Facts and vectors: ``protocols.md`` §4.
+reply must carry a correct one; a reply is believed only when it is the one reply its bytes
+can hold (:mod:`kit.drivers._odrive_replies`: noise before a line, a byte damaged in it), so
+a corrupted reply is refused rather than believed. Units are turns and turns/s (0.5.x).
+Facts and vectors: ``protocols.md`` §4.
+
+**The first command gets through.** :meth:`ODrive.connect` first sends a bare line end,
+which ends whatever partial line an earlier program left in the firmware's buffer (``f 0``
+without its end would swallow the next request), reads what that line answers, and only
+then asks for ``vbus_voltage`` — once more if the first exchange fails.
+
+**Watchdog.** The firmware stops an axis whose watchdog is not fed within
+``config.watchdog_timeout`` (error ``WATCHDOG_TIMER_EXPIRED``, 0x800, and IDLE):
+:meth:`ODrive.set_watchdog` sets it up as each firmware wants it (0.5.x: the time-out, a
+feed with ``u``, then ``enable_watchdog``; 0.4.x: the time-out alone, which feeds and
+enables it); ``v``, ``p``, ``q``, ``c``, ``t`` and ``u`` feed it.
 
 Erratum 9: the axis-state numbers changed at firmware 0.5.2 — the Uiabot paper's table
 (5 = SENSORLESS_CONTROL) is the 0.5.1 numbering. :func:`axis_state_name` knows both.
@@ -12,20 +25,39 @@ Erratum 9: the axis-state numbers changed at firmware 0.5.2 — the Uiabot paper
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from typing import Any
 
+from kit.drivers._odrive_replies import (
+    CR_FLIPPED,
+    DEVICE,
+    ERROR_REPLIES,
+    FORMS,
+    ReplyLines,
+    ReplySplitter,
+    judge_line,
+    parse_reply,
+)
 from kit.drivers.checksums import odrive_checksum
-from kit.drivers.errors import ChecksumError, DeviceError, DeviceTimeout, ProtocolError
+from kit.drivers.errors import (
+    ChecksumError,
+    DeviceError,
+    DeviceTimeout,
+    ProtocolError,
+    failed_twice,
+)
 from kit.drivers.port import Link
 
-__all__ = ["AXIS_STATES", "DEVICE", "ERROR_REPLIES", "ODrive", "ReplyLines", "ReplySplitter",
-           "axis_state_name", "encode_line", "parse_reply"]
+__all__ = ["AXIS_STATES", "CR_FLIPPED", "DEVICE", "ERROR_REPLIES", "FORMS",
+           "WATCHDOG_TIMER_EXPIRED", "ODrive", "ReplyLines", "ReplySplitter", "axis_state_name",
+           "encode_line", "judge_line", "parse_reply"]
 
-DEVICE = "ODrive"
 IDLE, FULL_CALIBRATION_SEQUENCE, CLOSED_LOOP_CONTROL = 1, 3, 8
 VELOCITY_CONTROL = 2
+WATCHDOG_TIMER_EXPIRED = 0x800
+"""``axis.error`` bit 11, the same in 0.4.12 and 0.5.x."""
 
 _COMMON = {0: "UNDEFINED", 1: "IDLE", 2: "STARTUP_SEQUENCE", 3: "FULL_CALIBRATION_SEQUENCE",
            4: "MOTOR_CALIBRATION", 6: "ENCODER_INDEX_SEARCH", 7: "ENCODER_OFFSET_CALIBRATION",
@@ -37,21 +69,19 @@ AXIS_STATES: dict[str, dict[int, str]] = {
 }
 """axis states by firmware: ``"0.5.1"`` (also 0.4.x) and ``"0.5.2"`` (0.5.2 – 0.5.6)."""
 
-LF_FLIPPED = (b"*", b"J")
-"""the printable bytes one flipped bit makes of LF (0x0A ^ 0x20, 0x0A ^ 0x40)."""
-CR_FLIPPED = (b"-", b"M")
-"""the printable bytes one flipped bit makes of CR (0x0D ^ 0x20, 0x0D ^ 0x40)."""
-ERROR_REPLIES = ("invalid command format", "invalid motor", "invalid property",
-                 "not implemented", "unknown command")
 
-
-def _numbering(firmware: str | tuple[int, ...]) -> str:
+def _version(firmware: str | tuple[int, ...]) -> tuple[int, ...]:
     if isinstance(firmware, str):
         parts = tuple(int(p) for p in firmware.lstrip("v").split(".")[:3])
     else:
         parts = tuple(firmware)
     if len(parts) < 2 or parts[:2] > (0, 5):
         raise ValueError(f"only firmware 0.4.x and 0.5.x are known; got {firmware!r}")
+    return parts
+
+
+def _numbering(firmware: str | tuple[int, ...]) -> str:
+    parts = _version(firmware)
     return "0.5.1" if parts[:2] < (0, 5) or parts[:3] <= (0, 5, 1) else "0.5.2"
 
 
@@ -84,144 +114,6 @@ def encode_line(command: str, checksum: bool = False) -> bytes:
     return f"{command}\n".encode("ascii")
 
 
-def _printable(raw: bytes) -> bool:
-    return all(0x20 <= b <= 0x7E for b in raw)
-
-
-def parse_reply(line: str | bytes, checksum: bool = False) -> str:
-    """A reply line (without CR LF) → its text, the checksum checked when expected.
-
-    The line is judged as the bytes that came: the firmware's replies are printable ASCII,
-    so any other byte (or character) means line noise, and the checksum is the XOR of those
-    bytes (two bytes that would both decode to U+FFFD cannot cancel out).
-
-    Raises :class:`ChecksumError` for a missing or wrong checksum, :class:`ProtocolError`
-    for a line that is not printable ASCII, and :class:`DeviceError` for the firmware's
-    error replies (``invalid property`` …).
-
-    >>> parse_reply(b"24.087744*32", checksum=True)
-    '24.087744'
-    """
-    if isinstance(line, str):
-        try:
-            raw = line.encode("ascii")
-        except UnicodeEncodeError:
-            raise ProtocolError(DEVICE, f"reply is not ASCII: {line[:60]!r}") from None
-    else:
-        raw = bytes(line)
-    if not _printable(raw):
-        raise ProtocolError(DEVICE, f"reply holds bytes the firmware never sends: {raw[:60]!r}")
-    text = raw.decode("ascii")
-    if checksum:
-        body, star, given = text.rpartition("*")
-        if not star or not given.isdigit():
-            raise ChecksumError(DEVICE, f"reply without a checksum: {text[:60]!r}")
-        if odrive_checksum(body) != int(given):
-            raise ChecksumError(DEVICE, f"checksum {given} does not match "
-                                        f"{odrive_checksum(body)} for {body[:60]!r}")
-        text = body
-    for code, error in enumerate(ERROR_REPLIES, start=1):
-        if text.startswith(error):
-            raise DeviceError(DEVICE, text, code)
-    return text
-
-
-class ReplySplitter:
-    """Bytes → reply lines, cut on the raw bytes.
-
-    The firmware ends every reply line with CR LF and sends nothing but printable ASCII in
-    between, so a line is a run of printable bytes, and anything else (CR, LF, a byte the
-    firmware never sends) ends it: a line end damaged by noise splits two replies instead
-    of merging them. Each line comes with ``clean``: whether a CR LF comes right before it
-    (or it is the first line). A line that does not start clean may be
-    the tail of a line cut by noise, and the XOR checksum cannot tell (a cut-off prefix
-    such as ``11`` XORs to zero), so :class:`ODrive` trusts it only after a good line.
-    A line longer than ``limit`` bytes (the firmware's 256) is dropped, counted in
-    ``dropped``.
-
-    >>> ReplySplitter().feed(b"1.5*31\\r\\n2.0 0.0\\r*31\\r\\n")
-    [(b'1.5*31', True), (b'2.0 0.0', True), (b'*31', False)]
-    """
-
-    def __init__(self, limit: int = 256) -> None:
-        self.limit = limit
-        self.dropped = 0
-        self._line = bytearray()
-        self._gap = bytearray()  # the bytes between the last line and the one coming
-        self._first = True
-
-    def feed(self, data: bytes) -> list[tuple[bytes, bool]]:
-        out: list[tuple[bytes, bool]] = []
-        line, gap = self._line, self._gap
-        for b in data:
-            if 0x20 <= b <= 0x7E:
-                line.append(b)
-                if len(line) > self.limit:
-                    self.dropped += len(line)
-                    line.clear()
-                continue
-            if line:
-                gap_ok = (self._first and not gap) or gap.endswith(b"\r\n")
-                out.append((bytes(line), gap_ok))
-                line.clear()
-                gap.clear()
-                self._first = False
-            gap.append(b)
-        return out
-
-
-class ReplyLines:
-    """Bytes → checked reply texts: :class:`ReplySplitter`'s lines through
-    :func:`parse_reply`. Corrupted lines and the firmware's debug prints are counted in
-    ``rejected`` and skipped; the firmware's error replies raise :class:`DeviceError`.
-
-    A line that did not start clean is taken only after a good line (junk between the two
-    aside): then what damaged the line end was the good line's LF — dropped, or turned by
-    one flipped bit into this line's first byte (``*`` or ``J``, which no reply starts
-    with), so such a line is also tried without that byte; likewise a line ending in what a
-    flipped bit makes of CR (``-`` or ``M``, which no checksum ends with).
-
-    >>> ReplyLines(checksum=True).feed(b"24.087744*32\\r\\n1.0*3\\r\\n")
-    ['24.087744']
-    """
-
-    def __init__(self, checksum: bool = True, limit: int = 256) -> None:
-        self.checksum = checksum
-        self.splitter = ReplySplitter(limit)
-        self.rejected = 0
-        self._good = False
-
-    def _accept(self, raw: bytes, clean: bool) -> str | None:
-        text: str | None = None
-        if clean or self._good:
-            candidates = [raw]
-            if not clean and raw[:1] in LF_FLIPPED and len(raw) > 1:
-                candidates.append(raw[1:])
-            if raw[-1:] in CR_FLIPPED and len(raw) > 1:  # this line's own CR, flipped
-                candidates.append(raw[:-1])
-            for candidate in candidates:
-                try:
-                    text = parse_reply(candidate, self.checksum)
-                    break
-                except (ChecksumError, ProtocolError):
-                    continue
-        if text is not None:
-            self._good = True
-        elif clean:
-            self._good = False  # a damaged line: what follows it unclean may be its tail
-        if text is None:
-            self.rejected += 1
-        return text
-
-    def feed(self, data: bytes) -> list[str]:
-        out = []
-        for raw, clean in self.splitter.feed(data):
-            text = self._accept(raw, clean)
-            if text is not None:
-                out.append(text)
-        return out
-
-
 class ODrive:
     """An ODrive on a serial port (``/dev/ttyACM0``, a pseudo-terminal, a logical port).
 
@@ -230,10 +122,15 @@ class ODrive:
     timeout : float
         Seconds to wait for a reply before :class:`DeviceTimeout`.
     checksum : bool
-        Checksum every request and require checksummed replies.
+        Checksum every request and require checksummed replies (the default: without
+        checksums a damaged reply cannot be told from a good one).
     firmware : str
-        Which axis-state numbering to use (``"0.5.6"``); :meth:`connect` reads it from the
+        Which axis-state numbering to use (``"0.5.6"``); :meth:`info` reads it from the
         device.
+
+    Every exchange holds the port's lock, so a keep-alive thread feeding the watchdog and
+    the program never interleave. ``last_exchange`` is ``(sent, answered)`` of the last
+    reply on the stamping clock: a reading was taken between the two.
     """
 
     def __init__(self, port: Any, timeout: float = 0.5, checksum: bool = True,
@@ -246,36 +143,58 @@ class ODrive:
         self.firmware = firmware
         self.replies = ReplyLines(checksum)
         self.rejected = 0
+        self.ambiguous = 0
+        self.last_exchange = (0.0, 0.0)
 
     # ------------------------------------------------------------------ lines
     def send(self, command: str) -> None:
-        """A command that has no reply (``v``, ``w``, ``sc`` …)."""
+        """A command that has no reply (``v``, ``w``, ``u``, ``sc`` …)."""
         self.link.write(encode_line(command, self.checksum), command)
 
-    def _lines(self, what: str, count: int) -> list[str]:
-        link = self.link
-        deadline = link.clock() + self.timeout
-        lines: list[str] = []
-        while True:
-            before = self.replies.rejected
-            lines += self.replies.feed(link.read_some(what))
-            self.rejected += self.replies.rejected - before
-            if len(lines) >= count:
-                return lines[:count]
-            if link.clock() >= deadline:
-                raise DeviceTimeout(DEVICE, f"{what}: no reply within {self.timeout:g} s")
+    def clear_line(self, quiet: float = 0.05) -> bytes:
+        """End whatever partial line the firmware holds (a bare line end: an earlier
+        program's ``f 0`` without its end is then answered, a damaged one dropped) and read
+        what answers until the line has been quiet for ``quiet`` s; returns those bytes."""
+        with self.link.lock:
+            self.link.write(b"\n", "clear the line")
+            return self.link.drain(quiet, self.timeout, "clear the line")
 
-    def query(self, command: str, lines: int = 1) -> list[str]:
-        """Send ``command`` and return its ``lines`` reply lines (texts); stale bytes are
-        dropped first."""
-        self.link.clear(command)
-        self.replies = ReplyLines(self.checksum)
-        self.send(command)
-        return self._lines(command, lines)
+    def _exchange(self, command: str, lines: int, form: str
+                  ) -> list[tuple[frozenset[str], frozenset[str]]]:
+        link = self.link
+        with link.lock:
+            link.clear(command)
+            self.replies = ReplyLines(self.checksum, form=form)
+            sent = link.stamp()
+            self.send(command)
+            deadline = link.clock() + self.timeout
+            got: list[tuple[frozenset[str], frozenset[str]]] = []
+            while True:
+                before, ambiguous = self.replies.rejected, self.replies.ambiguous
+                got += self.replies.feed_sets(link.read_some(command))
+                self.rejected += self.replies.rejected - before
+                self.ambiguous += self.replies.ambiguous - ambiguous
+                if len(got) >= lines:
+                    self.last_exchange = (sent, link.stamp())
+                    return got[:lines]
+                if link.clock() >= deadline:
+                    raise DeviceTimeout(DEVICE, f"{command}: no reply within {self.timeout:g} s")
+
+    def query(self, command: str, lines: int = 1, form: str = "reply") -> list[str]:
+        """Send ``command`` and return its ``lines`` reply lines (texts), each the one reply
+        its bytes can hold in ``form`` (:data:`FORMS`); stale bytes are dropped first. A
+        reply that could be more than one raises :class:`ProtocolError`."""
+        out = []
+        for candidates, literal in self._exchange(command, lines, form):
+            if len(candidates) != 1 or candidates != literal:
+                raise ProtocolError(DEVICE, f"{command}: a damaged reply that could be any of "
+                                            f"{sorted(candidates)[:4]}")
+            out.append(next(iter(candidates)))
+        return out
 
     def read(self, path: str) -> float:
         """``r <path>`` as a number (the firmware cuts replies to 9 characters)."""
-        text = self.query(f"r {path}")[0]
+        text = self.query(f"r {path}", form="number")[0]
         try:
             return float(text)
         except ValueError:
@@ -289,10 +208,31 @@ class ODrive:
         self.send(f"w {path} {text}")
 
     # ------------------------------------------------------------------ device
+    def connect(self) -> float:
+        """Clear the line (:meth:`clear_line`), then ``r vbus_voltage``, asked once more
+        (after clearing again) if the first exchange fails; returns the bus voltage [V]."""
+        self.clear_line()
+        try:
+            return self.vbus_voltage()
+        except (DeviceTimeout, ChecksumError, ProtocolError) as exc:
+            if self.link.failure is not None:
+                raise
+            first = exc
+        self.clear_line()
+        try:
+            return self.vbus_voltage()
+        except (DeviceTimeout, ChecksumError, ProtocolError) as exc:
+            raise failed_twice(exc, first) from None
+
+    def reopen(self) -> float:
+        """Open the port again (the device back after an unplug) and :meth:`connect`."""
+        self.link.reopen()
+        return self.connect()
+
     def info(self) -> dict[str, str]:
         """``i``: hardware version, firmware version, serial number; sets ``firmware``."""
         out = {}
-        for line in self.query("i", 3):
+        for line in self.query("i", 3, form="info"):
             key, _, value = line.partition(":")
             out[key.strip()] = value.strip()
         if "Firmware version" in out:
@@ -303,17 +243,61 @@ class ODrive:
         return self.read("vbus_voltage")
 
     def feedback(self, axis: int) -> tuple[float, float]:
-        """``f <axis>``: encoder position [turns] and velocity [turns/s], full resolution."""
-        text = self.query(f"f {axis}")[0]
-        try:
-            pos, vel = (float(t) for t in text.split())
-        except ValueError:
-            raise ProtocolError(DEVICE, f"f {axis}: expected two numbers, got {text!r}") from None
-        return pos, vel
+        """``f <axis>``: encoder position [turns] and velocity [turns/s], full resolution.
+
+        A reply whose bytes could hold more than one (``115.2…`` is also ``5.2…`` after two
+        characters whose XOR is zero) is told apart by ``r axis<n>.encoder.pos_estimate``
+        (and ``vel_estimate`` if need be): the one candidate they agree with is taken, and
+        ``last_exchange`` spans both readings."""
+        candidates, literal = self._exchange(f"f {axis}", 1, "feedback")[0]
+        values = []
+        for text in candidates:
+            try:
+                pos, vel = (float(t) for t in text.split())
+            except ValueError:
+                continue
+            values.append((pos, vel))
+        if len(candidates) == 1 and candidates == literal and values:
+            return values[0]
+        sent, t0 = self.last_exchange
+        position = self.read(f"axis{axis}.encoder.pos_estimate")
+        dt = self.last_exchange[1] - t0
+        agree = [(p, v) for p, v in values if abs(p - position) <= 0.5 + abs(v) * 2 * dt]
+        if len(agree) > 1:
+            velocity = self.read(f"axis{axis}.encoder.vel_estimate")
+            agree = [(p, v) for p, v in agree if abs(v - velocity) <= 0.5 + 0.05 * abs(v)]
+        self.last_exchange = (sent, self.last_exchange[1])
+        if len(agree) != 1 or f"{agree[0][0]:f} {agree[0][1]:f}" not in literal:
+            raise ProtocolError(DEVICE, f"f {axis}: a damaged reply that could be any of "
+                                        f"{sorted(candidates)[:4]}")
+        return agree[0]
 
     def set_velocity(self, axis: int, turns_per_second: float) -> None:
         """``v <axis> <turns/s>`` (velocity control; feeds the watchdog)."""
+        if not math.isfinite(turns_per_second):
+            raise ValueError(f"a velocity must be finite; got {turns_per_second}")
         self.send(f"v {axis} {turns_per_second:.6f}")
+
+    def feed(self, axis: int) -> None:
+        """``u <axis>``: feed the axis's watchdog (nothing else)."""
+        self.send(f"u {axis}")
+
+    def set_watchdog(self, axis: int, timeout: float) -> None:
+        """The firmware's own watchdog on ``axis``: the axis stops (IDLE, error 0x800) when
+        nothing feeds it for ``timeout`` s; 0 turns it off. 0.5.x: the time-out, a feed
+        (the counter is only reloaded by a feed), then ``enable_watchdog``; 0.4.x has no
+        ``enable_watchdog``: setting the time-out feeds and enables it."""
+        if not (math.isfinite(timeout) and timeout >= 0):
+            raise ValueError(f"the watchdog time-out is seconds >= 0; got {timeout}")
+        if _version(self.firmware)[:2] < (0, 5):
+            self.write(f"axis{axis}.config.watchdog_timeout", float(timeout))
+            return
+        if timeout > 0:
+            self.write(f"axis{axis}.config.watchdog_timeout", float(timeout))
+            self.feed(axis)
+            self.write(f"axis{axis}.config.enable_watchdog", True)
+        else:
+            self.write(f"axis{axis}.config.enable_watchdog", False)
 
     def axis_state(self, axis: int) -> int:
         return self.read_int(f"axis{axis}.current_state")
@@ -328,11 +312,15 @@ class ODrive:
         _state_name(state, self.firmware)  # refuses a state this firmware does not have
         self.write(f"axis{axis}.requested_state", state)
 
-    def wait_for_state(self, axis: int, state: int, timeout: float, poll: float = 0.1) -> None:
-        """Poll until the axis is in ``state``; an axis error or the time-out raises."""
+    def wait_for_state(self, axis: int, state: int, timeout: float, poll: float = 0.1,
+                       feed: bool = False) -> None:
+        """Poll until the axis is in ``state``; an axis error or the time-out raises.
+        ``feed`` feeds the axis's watchdog at every poll."""
         clock = self.link.clock
         deadline = clock() + timeout
         while True:
+            if feed:
+                self.feed(axis)
             current = self.axis_state(axis)
             if current == state:
                 return

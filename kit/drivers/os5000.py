@@ -27,6 +27,7 @@ from kit import msgs
 from kit.drivers.checksums import nmea_checksum
 from kit.drivers.errors import ChecksumError, DeviceTimeout, ProtocolError
 from kit.drivers.port import Link
+from kit.drivers.timing import SampleClock
 from kit.geometry import wrap_angle
 
 __all__ = ["DEVICE", "FIELDS", "CompassReading", "LineSplitter", "Os5000", "heading_to_yaw",
@@ -197,17 +198,25 @@ class LineSplitter:
         self.dropped = 0
 
     def feed(self, data: bytes) -> list[str]:
-        self._buffer += data
-        *lines, self._buffer = re.split(rb"[\r\n]+", self._buffer)
+        return [line for line, _ in self.feed_placed(data)]
+
+    def feed_placed(self, data: bytes) -> list[tuple[str, int]]:
+        """As :meth:`feed`, each line with the number of bytes ``data`` holds after the
+        line's first byte (its place in what just came, to date it by)."""
+        buffer = self._buffer + data
+        out = []
+        position = 0
+        for match in re.finditer(rb"[\r\n]+", buffer):
+            raw = buffer[position:match.start()]
+            start = raw.rfind(b"$")
+            if start >= 0:  # (other lines: free text the compass prints for commands)
+                out.append((raw[start:].decode("ascii", "replace"),
+                            len(buffer) - (position + start)))
+            position = match.end()
+        self._buffer = buffer[position:]
         if len(self._buffer) > self.limit:
             self.dropped += len(self._buffer)
             self._buffer = b""
-        out = []
-        for raw in lines:
-            start = raw.rfind(b"$")
-            if start < 0:
-                continue  # free text the compass prints in answer to commands
-            out.append(raw[start:].decode("ascii", "replace"))
         return out
 
 
@@ -233,12 +242,20 @@ class Os5000:
         self.fields = fields
         self.lines = LineSplitter()
         self.rejected = 0
-        self._pending: list[str] = []
-        self._arrived = 0.0
+        self.rate: float | None = None
+        """sentences per second, once :meth:`set_rate` set it: then lines are dated by the
+        compass's own pace (:class:`~kit.drivers.timing.SampleClock`)."""
+        self._pending: list[tuple[str, float]] = []
+        self._last_stamp = -float("inf")
+        self._pace: SampleClock | None = None
+        self._lines_seen = 0
 
     def set_rate(self, hz: int) -> None:
-        """``<ESC>R<n><CR>``: sentences per second (0 stops the stream)."""
+        """``<ESC>R<n><CR>``: sentences per second (0 stops the stream; a negative n is n
+        seconds per sentence)."""
         self._command("R", hz)
+        self.rate = float(hz) if hz > 0 else (1.0 / -hz if hz < 0 else None)
+        self._pace = None
 
     def _command(self, letter: str, value: int | None = None) -> None:
         text = "\x1b" + letter + ("" if value is None else f"{int(value)}\r")
@@ -263,27 +280,52 @@ class Os5000:
         self._command("Q", round(degrees * 10))
 
     def read_stamped(self) -> tuple[CompassReading, float]:
-        """The next valid reading and when its line arrived [s, stamping clock]."""
+        """The next valid reading and when the compass sent its line [s, stamping clock]:
+        by the compass's own pace once :meth:`set_rate` has set it (lines counted, their
+        arrivals bounding when the count began); otherwise the arrival of what came with it
+        less the time the bytes from the line's first one on took at the link's rate. Never
+        closer to the line before than that line took to send."""
         deadline = self.clock() + self.timeout
+        byte_time = 10.0 / self.link.baudrate
         while True:
             while self._pending:
-                line = self._pending.pop(0)
+                line, sent = self._pending.pop(0)
                 try:
-                    return _parse(line, self.fields), self._arrived
+                    reading = _parse(line, self.fields)
                 except (ChecksumError, ProtocolError):
                     self.rejected += 1
+                    continue
+                sent = max(sent, self._last_stamp + (len(line) + 2) * byte_time)
+                self._last_stamp = sent
+                return reading, sent
             if self.clock() >= deadline:
                 raise DeviceTimeout(DEVICE, f"no valid sentence within {self.timeout:g} s")
             data = self.link.read_some("read")
-            self._arrived = self.link.stamp()
-            self._pending.extend(self.lines.feed(data))
+            arrived = self.link.stamp()
+            placed = self.lines.feed_placed(data)
+            if self.rate is None or not placed:
+                self._pending.extend((line, arrived - after * byte_time) for line, after in placed)
+                continue
+            if self._pace is None:
+                self._pace = SampleClock(1.0 / self.rate)
+            first = self._lines_seen
+            self._lines_seen += len(placed)
+            after = placed[-1][1]  # the last line's first byte came this long before:
+            self._pace.observe(self._lines_seen, arrived - after * byte_time)
+            self._pending.extend((line, self._pace.time_of(first + k))
+                                 for k, (line, _) in enumerate(placed))
+
+    def reopen(self) -> None:
+        """Open the port again after it failed (the compass unplugged and back)."""
+        self.link.reopen()
+        self._pending.clear()
 
     def read(self) -> CompassReading:
         return self.read_stamped()[0]
 
     def read_imu(self) -> msgs.Imu:
         """The next reading as ``sensor_msgs/Imu`` (:func:`reading_to_imu`), stamped when
-        its line arrived."""
+        the compass sent it (:meth:`read_stamped`)."""
         reading, arrived = self.read_stamped()
         return reading_to_imu(reading, msgs.Time.from_sec(arrived), self.frame_id)
 

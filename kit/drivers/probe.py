@@ -107,17 +107,22 @@ def attempts() -> Iterator[tuple[str, int, Check]]:
 
 def probe(port: Any, timeout: float = 0.2, clock: Callable[[], float] = time.monotonic,
           sleep: Callable[[float], None] = time.sleep,
-          log: Callable[[str], None] | None = None) -> Answer | None:
-    """The first device that answers on ``port`` (a path or an open port), or ``None``.
+          log: Callable[[str], None] | None = None,
+          devices: tuple[str, ...] | None = None, exclusive: bool = True) -> Answer | None:
+    """The first device that answers on ``port`` (a path or an open port), or ``None``;
+    ``devices`` limits the devices tried (``kit stop``: the motor controllers);
+    ``exclusive=False`` shares a port another program holds.
 
     Raises
     ------
     PortError
-        The port cannot be opened, or fails while probing (unplugged).
+        The port cannot be opened (missing, busy), or fails while probing (unplugged).
     """
-    link = Link("probe", port, 115200, 0.01, clock, sleep)
+    link = Link("probe", port, 115200, 0.01, clock, sleep, exclusive=exclusive)
     try:
         for device, baud, check in attempts():
+            if devices is not None and device not in devices:
+                continue
             if log is not None:
                 log(f"{device} at {baud} baud …")
             link.set_baudrate(baud, f"{device} at {baud} baud")

@@ -9,8 +9,11 @@ logical clock on an emulator's logical port.
 
 A device that does not answer in time, or sends a corrupted frame, costs one read and is
 counted (``timeouts``, ``errors``); the thread goes on. A port that fails (the device
-unplugged: :class:`~kit.drivers.errors.PortError`) ends the thread, and the error is kept
-in ``error`` (and passed to ``on_error``).
+unplugged: :class:`~kit.drivers.errors.PortError`) is reported once (``on_error``); given
+a ``reopen``, the reader then tries it every ``backoff`` seconds, doubling up to
+``max_backoff``, and goes on reading on the same driver once the device is back, keeping
+the outage in ``gaps``; without one, the port failure ends the thread and is kept in
+``error``.
 
 >>> import queue
 >>> from kit import msgs
@@ -27,15 +30,36 @@ import queue
 import threading
 import time
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from typing import Any
 
 from kit import msgs
 from kit.drivers.errors import DeviceTimeout, DriverError, PortError
 
-__all__ = ["Reader", "Stamped", "message_time_ns"]
+__all__ = ["Gap", "Reader", "Stamped", "message_time_ns"]
 
 Stamped = tuple[str, int, msgs.Message]
 """``(topic, time_ns, message)``."""
+
+
+@dataclass(frozen=True)
+class Gap:
+    """An outage of a device: from its last message before the port failed to its first
+    after (stamps [ns]; ``end`` ``None`` while it lasts), and why."""
+
+    device: str
+    start: int
+    end: int | None
+    reason: str
+    retries: int = 0
+
+    @property
+    def seconds(self) -> float | None:
+        return None if self.end is None else (self.end - self.start) * 1e-9
+
+    def describe(self) -> str:
+        lasted = "not back" if self.seconds is None else f"{self.seconds:.2f} s without data"
+        return f"{self.device}: {lasted} ({self.reason}; {self.retries} tries to reopen)"
 
 
 def message_time_ns(message: msgs.Message) -> int:
@@ -75,14 +99,26 @@ class Reader:
         Called with the error that ended the thread.
     limit : int, optional
         Stop after this many readings (tests, one-shot captures).
+    reopen : callable, optional
+        Bring the device back after its port failed (the driver's ``reopen``); it raises
+        :class:`~kit.drivers.errors.PortError` (or another driver error) while the device
+        is not back.
+    backoff, max_backoff : float
+        Seconds before the first try to reopen, and the most between two (doubling).
+    stamp : callable, optional
+        The clock gaps are dated with when no message dates them [s] (the wall clock).
     """
 
     def __init__(self, name: str, read: Callable[[], Iterable[tuple[str, msgs.Message]]],
                  deliver: queue.Queue[Any] | Callable[[str, int, msgs.Message], None],
                  period: float = 0.0, on_error: Callable[[BaseException], None] | None = None,
-                 limit: int | None = None) -> None:
+                 limit: int | None = None, reopen: Callable[[], Any] | None = None,
+                 backoff: float = 0.1, max_backoff: float = 2.0,
+                 stamp: Callable[[], float] = time.time) -> None:
         if period < 0:
             raise ValueError(f"period must be >= 0 s; got {period}")
+        if not 0 < backoff <= max_backoff:
+            raise ValueError(f"need 0 < backoff <= max_backoff; got {backoff}, {max_backoff}")
         if isinstance(deliver, queue.Queue):
             target = deliver
 
@@ -100,9 +136,14 @@ class Reader:
         self.period = period
         self.on_error = on_error
         self.limit = limit
+        self.reopen = reopen
+        self.backoff, self.max_backoff = backoff, max_backoff
+        self.stamp = stamp
         self.readings = self.messages = self.timeouts = self.errors = 0
         self.error: BaseException | None = None
         self.counts: dict[str, int] = {}
+        self.gaps: list[Gap] = []
+        self.last_ns: int | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name=f"reader-{name}", daemon=True)
 
@@ -136,9 +177,38 @@ class Reader:
             return
         self.readings += 1
         for topic, message in out:
-            self._deliver(topic, message_time_ns(message), message)
+            t = message_time_ns(message)
+            if self.gaps and self.gaps[-1].end is None:
+                gap = self.gaps[-1]
+                self.gaps[-1] = Gap(gap.device, gap.start, t, gap.reason, gap.retries)
+            self._deliver(topic, t, message)
+            self.last_ns = t
             self.messages += 1
             self.counts[topic] = self.counts.get(topic, 0) + 1
+
+    def _recover(self, failure: PortError) -> bool:
+        """After a port failure: report it once, then reopen with a back-off until the
+        device is back (True) or the reader is stopped (False)."""
+        if self.on_error is not None:
+            self.on_error(failure)
+        start = self.last_ns if self.last_ns is not None else round(self.stamp() * 1e9)
+        reason = str(failure)
+        self.gaps.append(Gap(self.name, start, None, reason))
+        wait, tries = self.backoff, 0
+        while not self._stop.wait(wait):
+            tries += 1
+            try:
+                assert self.reopen is not None
+                self.reopen()
+            except DriverError:
+                wait = min(2 * wait, self.max_backoff)
+                gap = self.gaps[-1]
+                self.gaps[-1] = Gap(gap.device, gap.start, None, reason, tries)
+                continue
+            gap = self.gaps[-1]
+            self.gaps[-1] = Gap(gap.device, gap.start, None, reason, tries)
+            return True
+        return False
 
     def _run(self) -> None:
         next_start = time.monotonic()
@@ -146,7 +216,13 @@ class Reader:
             while not self._stop.is_set():
                 if self.limit is not None and self.readings >= self.limit:
                     return
-                self._once()
+                try:
+                    self._once()
+                except PortError as failure:
+                    if self.reopen is None or not self._recover(failure):
+                        raise
+                    next_start = time.monotonic()
+                    continue
                 if self.period:
                     # keep the average rate: a late reading is made up for by the next
                     # ones, up to a second's worth; further behind, start afresh
@@ -158,5 +234,6 @@ class Reader:
                         self._stop.wait(wait)
         except BaseException as exc:  # the thread's end: kept for whoever owns the reader
             self.error = exc
-            if self.on_error is not None:
+            if self.on_error is not None and (self.reopen is None or
+                                              not isinstance(exc, PortError)):
                 self.on_error(exc)

@@ -1,4 +1,19 @@
-"""The RPLidar A1 driver: health, info, the standard and express scans, whole turns."""
+"""The RPLidar A1 driver: health, info, the standard and express scans, whole turns, each
+stamped with when its first sample was measured.
+
+**Stamps.** The head takes a sample every ``sample time`` (``GET_SAMPLERATE``, asked at
+:meth:`RPLidar.start`; 500 µs, the A1's 2000 samples/s, if the device does not answer),
+so node ``i`` of a scan was measured at ``T0 + i · sample time``; the arrival of each
+chunk of nodes bounds ``T0`` (:class:`~kit.drivers.timing.SampleClock`). A turn's
+``LaserScan`` is stamped with its first node's time and carries ``scan_time`` and
+``time_increment`` from the same clock, so the turns of a start-up backlog get their own
+times, one turn apart, and stamps increase strictly.
+
+**The first command gets through.** :meth:`RPLidar.start` first sends 130 × ``A5 25``
+(STOP): they complete whatever request an earlier program left unfinished in the lidar's
+receiver (the longest carries 255 payload bytes) and stop a scan left running; then it asks
+for the health, once more if the first exchange fails.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +23,7 @@ from collections.abc import Callable
 from typing import Any
 
 from kit import msgs
-from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError
+from kit.drivers.errors import DeviceError, DeviceTimeout, ProtocolError, failed_twice
 from kit.drivers.port import Link
 from kit.drivers.rplidar._protocol import (
     BAUDRATE,
@@ -29,6 +44,13 @@ from kit.drivers.rplidar._protocol import (
     parse_descriptor,
 )
 from kit.drivers.rplidar._turns import Turn, TurnAssembler, revolution_to_scan
+from kit.drivers.timing import SampleClock
+
+FILL = bytes.fromhex("A525") * 130
+"""STOP 130 times: completes any request left half sent (≤ 259 bytes) and ends aligned."""
+A1_SAMPLE_TIME = 500e-6
+"""the A1's standard scan: 2000 samples/s (its datasheet), when GET_SAMPLERATE is not
+answered."""
 
 
 class RPLidar:
@@ -71,11 +93,21 @@ class RPLidar:
         self.parser: _Resynchronising = NodeParser(strict=True)
         self.turns = TurnAssembler(min_nodes=min_nodes, min_span_deg=min_span_deg)
         self.scanning = False
+        self.express = False
         self.last_turn: Turn | None = None
         self.skipped_before_reply = 0
         """bytes skipped while looking for a reply's descriptor."""
+        self.sample_times = (A1_SAMPLE_TIME, A1_SAMPLE_TIME / 2)
+        """seconds per sample (standard scan, express scan), from the device if it says."""
+        self.clock_of_samples: SampleClock | None = None
+        self.samples = 0
+        """nodes decoded since the scan started (the sample clock's count)."""
+        self.reordered = 0
+        """turns whose stamp had to be moved past the one before (never, if all is well)."""
+        self._last_stamp = -float("inf")
         self._ready: list[Turn] = []
         self._pending = bytearray()
+        self._resume = (False, False)
 
     def _motor(self, run: bool) -> None:
         try:
@@ -147,6 +179,13 @@ class RPLidar:
         data = self._command(GET_SAMPLERATE, "get sample rate", 0x15, length=4)
         return int.from_bytes(data[0:2], "little"), int.from_bytes(data[2:4], "little")
 
+    def clear_line(self) -> None:
+        """Complete whatever request an earlier program left unfinished in the lidar and stop
+        any scan (:data:`FILL`); drop what came meanwhile."""
+        self.link.write(FILL, "clear the line")
+        self.link.sleep(0.002 + 10 * len(FILL) / self.link.baudrate)
+        self._clear("clear the line")
+
     def reset(self, wait: float = 2.0) -> None:
         self._command(RESET, "reset", None)
         self.link.sleep(wait)
@@ -167,21 +206,43 @@ class RPLidar:
         self.parser = parser
         self.turns.reset()
         self._ready = []
+        self.express = kind == 0x82
+        period = self.sample_times[1 if self.express else 0]
+        per_node = CAPSULE / 32 if self.express else 5
+        self.clock_of_samples = SampleClock(period, 10 * per_node / self.link.baudrate)
+        self.samples = 0
         self.scanning = True
 
     def start(self) -> None:
-        """Motor on, a scan left running stopped, health checked (a device in error is reset
-        once), standard scan on."""
+        """Line cleared (:meth:`clear_line`), motor on, health checked (asked once more if
+        the first exchange fails; a device in error is reset once), sample time asked,
+        standard scan on."""
         self._motor(True)
-        self._command(STOP, "stop", None)
-        self.link.sleep(0.002)
-        self._clear("stop")
-        status, code = self.health()
+        self.clear_line()
+        try:
+            status, code = self.health()
+        except (DeviceTimeout, ProtocolError) as exc:
+            if self.link.failure is not None:
+                raise
+            self.clear_line()
+            try:
+                status, code = self.health()
+            except (DeviceTimeout, ProtocolError) as again:
+                raise failed_twice(again, exc) from None
         if status == 2:
             self.reset()
             status, code = self.health()
             if status == 2:
                 raise DeviceError(DEVICE, f"health: error 0x{code:04X} after a reset", code)
+        try:
+            timeout, self.timeout = self.timeout, min(self.timeout, 0.25)
+            standard, express = self.sample_time_us()
+            if standard and express:
+                self.sample_times = (standard * 1e-6, express * 1e-6)
+        except (DeviceTimeout, ProtocolError):
+            pass  # older firmware: the A1's datasheet rate
+        finally:
+            self.timeout = timeout
         self._begin(encode_request(SCAN), 0x81, 5, "scan", NodeParser(strict=True))
 
     def start_express(self) -> None:
@@ -197,13 +258,30 @@ class RPLidar:
         self.scanning = False
         self._motor(False)
 
+    def reopen(self) -> None:
+        """Open the port again after it failed (the lidar unplugged and back, so stopped)
+        and scan again as before (standard or express)."""
+        if self.scanning:  # (kept across tries while the lidar is not back)
+            self._resume = (True, self.express)
+        self.scanning = False
+        self.link.reopen()
+        scanning, express = self._resume
+        if scanning:
+            self.start()
+            if express:
+                self.start_express()
+        self._resume = (False, False)
+
     def read_turn(self) -> Turn:
-        """The next complete, plausible turn (:class:`Turn`), or :class:`DeviceTimeout`
-        after ``timeout`` seconds saying what came instead."""
+        """The next complete, plausible turn (:class:`Turn`, its times those its nodes were
+        measured at), or :class:`DeviceTimeout` after ``timeout`` seconds saying what came
+        instead."""
         if not self.scanning:
             raise ProtocolError(DEVICE, "read: call start() first")
         link = self.link
         deadline = link.clock() + self.timeout
+        clock = self.clock_of_samples
+        assert clock is not None
         while not self._ready:
             if link.clock() >= deadline:
                 refused = sum(getattr(self.parser, "refused", Counter()).values())
@@ -212,11 +290,24 @@ class RPLidar:
                                             f"{self.turns.summary()}; {self.parser.skipped} "
                                             f"bytes skipped, {refused} impossible nodes)")
             data = link.read_some("read scan")
+            arrived = link.stamp()
             if self._pending:
                 data, self._pending = bytes(self._pending) + data, bytearray()
-            self._ready.extend(self.turns.push(self.parser.feed(data), link.stamp()))
-        self.last_turn = self._ready.pop(0)
-        return self.last_turn
+            nodes = self.parser.feed(data)
+            first = self.samples
+            self.samples += len(nodes)
+            clock.observe(self.samples, arrived)
+            if nodes:
+                times = [clock.time_of(first + k) for k in range(len(nodes))]
+                self._ready.extend(self.turns.push(nodes, times))
+        turn = self._ready.pop(0)
+        if turn.started <= self._last_stamp:
+            self.reordered += 1
+            shift = self._last_stamp + 1e-6 - turn.started
+            turn = Turn(turn.nodes, turn.started + shift, turn.ended + shift)
+        self._last_stamp = turn.started
+        self.last_turn = turn
+        return turn
 
     def read_revolution(self) -> list[Node]:
         """The nodes of the next complete turn (from one start flag to the next)."""
@@ -224,7 +315,7 @@ class RPLidar:
 
     def read_scan(self) -> msgs.LaserScan:
         """The next complete turn as a counter-clockwise ``LaserScan``, stamped when its
-        first node arrived."""
+        first node was measured; ``scan_time`` is the turn's duration by the same clock."""
         turn = self.read_turn()
         scan_time = max(turn.ended - turn.started, 1e-3)
         return revolution_to_scan(turn.nodes, msgs.Time.from_sec(turn.started), self.frame_id,

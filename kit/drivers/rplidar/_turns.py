@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,8 +32,9 @@ def angular_span_deg(angles_deg: Iterable[float]) -> float:
 
 @dataclass(frozen=True)
 class Turn:
-    """One complete turn: its nodes (from one start flag up to the next) and when the two
-    start flags arrived [s, on the driver's stamping clock]."""
+    """One complete turn: its nodes (from one start flag up to the next) and the times of
+    its first node and of the start flag that ended it [s, on the driver's stamping clock:
+    when they were measured, or arrived, as the caller of :meth:`TurnAssembler.push` says]."""
 
     nodes: tuple[Node, ...]
     started: float
@@ -119,11 +120,15 @@ class TurnAssembler:
             return False
         return angular_span_deg(n.angle_deg for n in current) >= self.min_span_deg
 
-    def push(self, nodes: list[Node], now: float) -> list[Turn]:
-        """Add nodes that arrived at ``now``; returns the turns they completed."""
+    def push(self, nodes: list[Node], now: float | Sequence[float]) -> list[Turn]:
+        """Add nodes, all timed ``now`` or each with its time in ``now``; returns the turns
+        they completed."""
         done: list[Turn] = []
         self.nodes += len(nodes)
-        for node in nodes:
+        times = [now] * len(nodes) if isinstance(now, (int, float)) else list(now)
+        if len(times) != len(nodes):
+            raise ValueError(f"{len(nodes)} nodes but {len(times)} times")
+        for node, t in zip(nodes, times, strict=True):
             current = self._current
             if node.start:
                 self.starts += 1
@@ -134,10 +139,10 @@ class TurnAssembler:
                     problem = self.problem(current)
                     if problem is None:
                         self.turns += 1
-                        done.append(Turn(tuple(current), self._started, now))
+                        done.append(Turn(tuple(current), self._started, float(t)))
                     else:
                         self.rejected[problem] += 1
-                self._current, self._started = [node], now
+                self._current, self._started = [node], float(t)
             elif current is not None:
                 current.append(node)
                 if len(current) > self.max_nodes:  # no start flag for far too long

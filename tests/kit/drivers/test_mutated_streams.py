@@ -3,12 +3,16 @@ inserted, the frame cut short; never two frames in a row), fed in random pieces:
 parser whose protocol has a check code gives back every intact frame, and nothing that was
 not sent — no frame lost, no corrupted frame taken. (A corrupted frame whose content
 survived, say one that lost only its line end, may come through: it is what was sent.)
-The RPLidar's nodes and the BNO055's replies have no check code; their figures are
-bounded, and so are the ODrive's for replies cut off before their line end (the XOR
-checksum cannot always tell two replies run together)."""
+Where the check codes themselves cannot tell two readings apart — a DPRALTE header cut
+short before a whole frame, an ODrive reply behind characters whose XOR is zero — the
+parser says so (the frame's ``alternatives``, an ambiguous line) and never picks one for
+the reader that knows what it waits for. The RPLidar's nodes and the BNO055's replies have
+no check code; their figures are bounded, and so are the ODrive's for replies cut off
+before their line end. All with fixed seeds; longer runs: ``benchmarks/bench_drivers.py``."""
 
 from __future__ import annotations
 
+import math
 import random
 
 import pytest
@@ -111,25 +115,66 @@ def reencode(frame: dpralte.Frame) -> bytes:
     return out
 
 
+def readings(frames: list[dpralte.Frame]) -> list[bytes]:
+    """Every reading the parser offers, in order: each frame, then its other reading."""
+    return [reencode(g) for f in frames for g in (f, *f.alternatives)]
+
+
 def test_dpralte_keeps_every_intact_frame_and_takes_no_corrupted_one():
     rng = random.Random(16)
     frames = [dpralte_frame(rng, i) for i in range(20_000)]
     stream, intact, hit = mutated(frames, rng)
     parser = dpralte.FrameParser()
-    got = [reencode(f) for chunk in pieces(stream, rng) for f in parser.feed(chunk)]
+    got = [f for chunk in pieces(stream, rng) for f in parser.feed(chunk)] + parser.flush()
     assert hit > 1500
-    assert in_order(intact, got) == []  # no intact frame lost
-    assert in_order(got, frames) == []  # nothing taken that was not sent
+    assert in_order(intact, readings(got)) == []  # no intact frame lost (nor any reading)
+    certain = [reencode(f) for f in got if not f.alternatives]
+    assert in_order(certain, frames) == []  # nothing certain taken that was not sent
+    # a frame with two readings: one of them was sent (a header cut short before a whole
+    # frame, or a frame whose data is frames); the drive takes the one it waits for
+    assert all(any(r in frames for r in readings([f])) for f in got if f.alternatives)
+    assert parser.ambiguous == sum(1 for f in got if f.alternatives) < hit // 100
 
 
-def test_a_truncated_dpralte_reply_no_longer_swallows_the_next():
-    """The issue's case: a reply cut after a header announcing 3 words takes the next
-    8-byte frame as its data, and the CRC residue of a whole frame is zero."""
+def adversarial_reply(rng: random.Random, sequence: int) -> bytes:
+    """A 3-word reply whose data is the first 6 bytes of a header: its data and data CRC
+    are then that header whole (a valid frame inside a valid frame)."""
+    inner = dpralte.encode_read(rng.choice([0x3E, 0x3F]), rng.randrange(256), rng.randrange(256),
+                                rng.randint(1, 4), rng.randrange(16))
+    head = bytes([0xA5, 0xFF, 0x02 | sequence << 2, 0x01, 0x00, 3])
+    data = inner[:6]
+    assert dpralte.crc16_xmodem(data).to_bytes(2, "big") == inner[6:8]
+    return head + dpralte.crc16_xmodem(head).to_bytes(2, "big") + data + inner[6:8]
+
+
+def test_dpralte_on_a_clean_line_loses_no_frame_and_takes_no_phantom():
+    """The issue's case, on purpose and at random: 3-word replies whose data looks like a
+    frame header (1 in 20 here; 1 in about 288 000 by chance), among 20 000 frames fed in
+    random pieces. Every frame comes out as sent, and nothing else."""
+    rng = random.Random(27)
+    planted = [rng.random() < 0.05 for _ in range(20_000)]
+    frames = [adversarial_reply(rng, i % 16) if p else dpralte_frame(rng, i)
+              for i, p in enumerate(planted)]
+    parser = dpralte.FrameParser()
+    got = [f for chunk in pieces(b"".join(frames), rng) for f in parser.feed(chunk)]
+    got += parser.flush()
+    assert [reencode(f) for f in got] == frames  # 0 lost, 0 phantom
+    assert parser.dropped == 0
+    # each planted reply is also given with its other reading, for a reader that knows
+    assert all(f.alternatives for f, p in zip(got, planted, strict=True) if p)
+    assert sum(planted) > 800
+
+
+def test_a_dpralte_header_cut_short_before_a_whole_frame_gives_both_readings():
+    """A reply cut after a header announcing 3 words, then an 8-byte frame: the 16 bytes
+    check as one frame (a header followed by its CRC leaves a zero residue). The parser
+    cannot know which was sent: it gives the frame with the other reading."""
     head = bytes([0xA5, 0xFF, 0x02 | 3 << 2, 0x01, 0x00, 3])
     truncated = head + dpralte.crc16_xmodem(head).to_bytes(2, "big")
     reply = bytes.fromhex("A5FF010100 00B902".replace(" ", ""))  # R1, write complete
     frames = dpralte.FrameParser().feed(truncated + reply)
-    assert [reencode(f) for f in frames] == [reply]
+    assert len(frames) == 1 and [reencode(a) for a in frames[0].alternatives] == [reply]
+    assert reencode(frames[0]) == truncated + reply
 
 
 class _Script:
@@ -161,6 +206,23 @@ def test_an_intact_reply_after_a_truncated_one_reaches_the_drive():
     with pytest.raises(dpralte.DeviceTimeout):
         drive.read_position()  # the first reply is cut short
     assert drive.read_position() == 2000  # the leftovers of the first do not eat it
+
+
+def test_the_drive_takes_the_reading_that_answers_its_request():
+    """Both readings of the ambiguous 16 bytes reach a transaction: waiting for a write's
+    reply with sequence 1, the drive takes the inner R1-shaped frame; waiting for a 3-word
+    read with sequence 3, the outer one."""
+    head = bytes([0xA5, 0xFF, 0x02 | 3 << 2, 0x01, 0x00, 3])
+    inner = bytes([0xA5, 0xFF, 0x01 | 1 << 2, 0x01, 0x00, 0x00])
+    inner += dpralte.crc16_xmodem(inner).to_bytes(2, "big")
+    both = head + dpralte.crc16_xmodem(head).to_bytes(2, "big") + inner
+    drive = dpralte.DpralteDrive(_Script([both]), 0x3F, timeout=0.05)
+    drive.sequence = 0
+    drive.write((0x45, 0x02), dpralte.int32_words(0), "set velocity")  # sequence 1: inner
+    drive = dpralte.DpralteDrive(_Script([both]), 0x3F, timeout=0.05)
+    drive.sequence = 2
+    frame = drive.read((0x3C, 0x00), 3, "read ramp")  # sequence 3, 3 words: outer
+    assert frame.data == inner[:6]
 
 
 def sick_telegram(rng: random.Random, i: int) -> bytes:
@@ -204,46 +266,92 @@ def test_os5000_keeps_every_intact_sentence_and_takes_no_corrupted_one():
     assert hit > 1500 and in_order(intact, got) == [] and in_order(got, frames) == []
 
 
-def odrive_line(rng: random.Random, i: int) -> bytes:
-    """A checksummed reply as the firmware writes it, each one different (``i``)."""
-    kind = rng.randrange(3)
-    if kind == 0:
-        text = f"{i / 7:f} {rng.uniform(-50, 50):f}"  # f <axis>: position, velocity
-    elif kind == 1:
-        text = f"{i / 100:f}"[:9]  # r <float>: cut to 9 characters
+def odrive_reply(rng: random.Random, i: int, form: str) -> bytes:
+    """A checksummed reply as the firmware writes it, each one different (``i``): ``f``'s
+    ``%f %f`` (form ``feedback``), or ``r``'s float cut to 9 characters or integer
+    (``number``)."""
+    if form == "feedback":
+        text = f"{i / 7:f} {rng.uniform(-50, 50):f}"
+    elif rng.random() < 0.5:
+        text = f"{i / 100:f}"[:9]
     else:
-        text = str(i)  # r <integer>
+        text = str(i)
     return f"{text}*{odrive_checksum(text)}\r\n".encode("ascii")
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_odrive_keeps_every_intact_line_and_takes_no_corrupted_one(seed):
-    rng = random.Random(seed)
-    frames = [odrive_line(rng, i) for i in range(20_000)]
+def _text(line: bytes) -> str:
+    return line.decode("ascii").split("*")[0]
+
+
+def _zero_xor_prefix(text: str, form: str) -> bool:
+    """Whether the clean reply could also be a shorter one behind characters whose XOR is
+    zero (``115.2…`` is ``5.2…`` after ``11``): a reader cannot know which it got."""
+    return odrive.judge_line(f"{text}*{odrive_checksum(text)}".encode(), b"", form)[1] == \
+        "ambiguous"
+
+
+@pytest.mark.parametrize("form", ["feedback", "number"])
+def test_odrive_keeps_every_intact_line_and_takes_no_corrupted_one(form):
+    rng = random.Random(1 if form == "feedback" else 2)
+    frames = [odrive_reply(rng, i, form) for i in range(20_000)]
     stream, intact, hit = mutated(frames, rng, kinds=("flip", "drop", "insert"))
-    lines = odrive.ReplyLines(checksum=True)
+    lines = odrive.ReplyLines(checksum=True, form=form)
     got = [t for chunk in pieces(stream, rng) for t in lines.feed(chunk)]
-
-    def text(f: bytes) -> str:
-        return f.decode("ascii").split("*")[0]
-
     assert hit > 1500
-    assert in_order([text(f) for f in intact], got) == []
-    assert in_order(got, [text(f) for f in frames]) == []
+    assert in_order(got, [_text(f) for f in frames]) == []  # no corrupted line taken
+    lost = in_order([_text(f) for f in intact], got)
+    # an intact line is left out only where its own bytes could be another reply, which the
+    # driver tells apart with a second reading (test_odrive_feedback_...)
+    assert all(_zero_xor_prefix(t, form) for t in lost)
+
+
+@pytest.mark.parametrize("form", ["feedback", "number"])
+def test_odrive_with_noise_before_its_lines_accepts_no_corrupted_number(form):
+    """The board's UART pins: 0 to 6 random bytes before every reply. No number from a
+    damaged line is taken; what is lost is figures (the issue's reader: 35 % lost, 88
+    corrupted lines taken, 4 as wrong numbers)."""
+    rng = random.Random(3 if form == "feedback" else 4)
+    frames = [odrive_reply(rng, i, form) for i in range(20_000)]
+    stream = b"".join(bytes(rng.randrange(256) for _ in range(rng.randint(0, 6))) + f
+                      for f in frames)
+    lines = odrive.ReplyLines(checksum=True, form=form)
+    got = [t for chunk in pieces(stream, rng) for t in lines.feed(chunk)]
+    sent = [_text(f) for f in frames]
+    assert in_order(got, sent) == []  # 0 corrupted numbers accepted, nothing out of order
+    lost = in_order(sent, got)
+    ambiguous_anyway = sum(_zero_xor_prefix(t, form) for t in lost)
+    assert (len(lost) - ambiguous_anyway) / len(sent) < 0.06
 
 
 def test_odrive_replies_cut_before_their_line_end_run_into_the_next():
-    """The limit of an 8-bit XOR: a reply cut off before its CR LF merges with the next,
-    and a cut-off prefix such as ``11`` XORs to zero. Figures for 1 reply in 10 cut."""
+    """A reply cut off before its CR LF runs into the next: the next is still taken when it
+    is the one reply the merged bytes can hold. Figures for 1 reply in 10 cut."""
     rng = random.Random(4)
-    frames = [odrive_line(rng, i) for i in range(20_000)]
+    frames = [odrive_reply(rng, i, "number") for i in range(20_000)]
     stream, intact, _hit = mutated(frames, rng, kinds=("truncate",))
-    got = odrive.ReplyLines(checksum=True).feed(stream)
-    texts = [f.decode("ascii").split("*")[0] for f in intact]
-    lost = len(in_order(texts, got)) / len(texts)
-    wrong = len(in_order(got, [f.decode("ascii").split("*")[0] for f in frames])) / len(got)
-    assert 0.05 < lost < 0.12  # about every reply after a cut one
-    assert wrong < 0.003  # and a few merged ones pass their checksum
+    got = odrive.ReplyLines(checksum=True, form="number").feed(stream)
+    texts = [_text(f) for f in intact]
+    lost = [t for t in in_order(texts, got) if not _zero_xor_prefix(t, "number")]
+    assert len(lost) / len(texts) < 0.08
+    assert in_order(got, [_text(f) for f in frames]) == []  # and nothing that was not sent
+
+
+def test_odrive_feedback_behind_a_zero_xor_prefix_is_told_apart_by_a_second_reading():
+    """At 115.2 motor turns ``f 0`` answers ``115.200000 …``, whose bytes are also
+    ``5.200000 …`` behind ``11`` (XOR zero): the driver asks ``r …pos_estimate`` and takes
+    the reading it agrees with."""
+    from hardware.emulators import Clock, LogicalPort
+    from hardware.emulators.backends import IdealWheels
+    from hardware.emulators.odrive import ODriveEmulator
+
+    wheels = IdealWheels()
+    wheels.angles[0] = 115.2 * 2 * math.pi  # at the wheel: gear_ratio 1 below
+    clock = Clock()
+    od = odrive.ODrive(LogicalPort(ODriveEmulator(wheels, gear_ratio=1.0, axis_signs=(1, 1)),
+                                   clock), clock=clock, sleep=clock.sleep)
+    position, velocity = od.feedback(0)
+    assert position == pytest.approx(115.2, abs=1e-4) and velocity == 0.0
+    assert od.ambiguous == 1  # the f reply alone could not say
 
 
 def test_odrive_checksums_are_taken_on_the_bytes_that_came():

@@ -4,6 +4,7 @@ a time-out cannot hang a driver, stamps are wall-clock on real ports."""
 from __future__ import annotations
 
 import errno
+import itertools
 import os
 import pty
 import termios
@@ -17,7 +18,7 @@ from hardware.emulators import Clock, LogicalPort, PtyServer
 from hardware.emulators.bno055 import BNO055Emulator
 from kit.drivers import DeviceTimeout, PortError, ProtocolError, bno055, odrive, os5000
 from kit.drivers.bases import IgvBase, UiabotBase
-from kit.drivers.port import Link, wall_clock_for
+from kit.drivers.port import Link, wall_clock, wall_clock_for
 
 
 class _Unplugged:
@@ -81,18 +82,21 @@ def test_a_users_port_without_timeout_cannot_hang_the_driver():
         port = serial.Serial(os.ttyname(slave), 19200)  # pyserial's default: timeout=None
         assert port.timeout is None
         compass = os5000.Os5000(port, timeout=0.3)
+        # reads become 10 ms slices, so the driver's own deadline is what ends a read
         assert port.timeout == 0.01 and port.write_timeout == 1.0
-        t0 = time.monotonic()
         with pytest.raises(DeviceTimeout, match=r"OS5000: no valid sentence within 0\.3 s"):
             compass.read()  # nobody on the other side
-        assert time.monotonic() - t0 < 0.6
     finally:
         os.close(master)
         os.close(slave)
 
 
 def test_stamps_are_wall_clock_on_a_real_port_and_logical_on_an_emulator():
-    assert wall_clock_for(time.monotonic) is time.time
+    assert wall_clock_for(time.monotonic) is wall_clock
+    # seconds since the epoch, carried by the monotonic clock: never going back
+    readings = [wall_clock() for _ in range(1000)]
+    assert all(b >= a for a, b in itertools.pairwise(readings))
+    assert abs(readings[-1] - time.time()) < 1.0
     clock = Clock(start=3.0)
     assert wall_clock_for(clock) is clock
     with PtyServer(BNO055Emulator()) as server:
@@ -104,4 +108,50 @@ def test_stamps_are_wall_clock_on_a_real_port_and_logical_on_an_emulator():
     imu = bno055.BNO055(LogicalPort(BNO055Emulator(), clock), clock=clock, sleep=clock.sleep)
     imu.begin()
     m = imu.read_imu()
-    assert m.header.stamp.to_sec() == pytest.approx(clock.now, abs=1e-9) and clock.now < 10
+    # the middle of the exchange that read it, on the logical clock
+    assert m.header.stamp.to_sec() == pytest.approx(0.5 * sum(imu.last_exchange), abs=1e-9)
+    assert imu.last_exchange[0] < m.header.stamp.to_sec() < clock.now < 10
+
+
+def test_a_second_opener_is_told_the_port_is_busy_and_by_whom():
+    """Ports are ours alone: a second driver (here, in this program) gets ``busy`` naming
+    the holder; the first keeps working, its input untouched by the second's attempt."""
+    from hardware.emulators.odrive import ODriveEmulator
+
+    with PtyServer(ODriveEmulator(vbus_voltage=24.0)) as server:
+        first = odrive.ODrive(server.path)
+        assert first.vbus_voltage() == pytest.approx(24.0)
+        with pytest.raises(PortError, match=rf"ODrive: cannot open '{server.path}' at 115200 "
+                                            rf"baud: the port is busy \(held by PID "
+                                            rf"{os.getpid()} \(this program\)\)") as info:
+            odrive.ODrive(server.path)
+        assert info.value.errno == errno.EAGAIN
+        with pytest.raises(PortError, match=r"RPLidar: .* busy \(held by PID"):
+            from kit.drivers import rplidar
+
+            rplidar.RPLidar(server.path)
+        assert first.vbus_voltage() == pytest.approx(24.0)  # the holder goes on
+        first.close()
+        second = odrive.ODrive(server.path)  # free again once closed
+        assert second.vbus_voltage() == pytest.approx(24.0)
+        second.close()
+
+
+def test_a_port_held_by_another_program_names_that_process():
+    import subprocess
+    import sys
+
+    from hardware.emulators.odrive import ODriveEmulator
+
+    holder = "import sys, time\nfrom kit.drivers import odrive\nd = odrive.ODrive(sys.argv[1])" \
+             "\nprint(d.vbus_voltage(), flush=True)\ntime.sleep(600)\n"
+    with PtyServer(ODriveEmulator(vbus_voltage=24.0)) as server:
+        proc = subprocess.Popen([sys.executable, "-c", holder, server.path],
+                                stdout=subprocess.PIPE, text=True)
+        try:
+            assert float(proc.stdout.readline()) == pytest.approx(24.0)
+            with pytest.raises(PortError, match=rf"busy \(held by PID {proc.pid} \(python"):
+                odrive.ODrive(server.path)
+        finally:
+            proc.kill()
+            proc.wait(30)
