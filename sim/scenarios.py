@@ -44,7 +44,14 @@ from scipy import ndimage
 from kit import geometry, msgs, perception
 from kit.localization import Amcl, AmclParameters
 from kit.mapping import OccupancyGridMap
-from kit.navigation import RUNNING, SUCCEEDED, NavigationCostmap, Navigator, arc_poses
+from kit.navigation import (
+    RUNNING,
+    SUCCEEDED,
+    Controller,
+    NavigationCostmap,
+    Navigator,
+    arc_poses,
+)
 from kit.planning import (
     FREE_SPACE,
     INSCRIBED_INFLATED_OBSTACLE,
@@ -567,9 +574,11 @@ def localization_source(s: EpisodeSetup, localization: str, seed: int) -> Any:
 
 
 def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
-                controller: str = "rpp") -> NavigationNode:
+                controller: str | Controller = "rpp") -> NavigationNode:
     """One seeded episode with a localization source; the node (its ``results``, its
-    ``pose_errors``). With SLAM the navigator starts from unknown space."""
+    ``pose_errors``, its ``trail``). With SLAM the navigator starts from unknown space.
+    ``controller``: ``"rpp"``, ``"dwb"`` or a controller object (e.g. the kit's
+    controllers with a student's functions in them, Lab 10)."""
     route = s.route
     sim = Simulation(world=s.world, robot=s.robot, seed=seed, people=route.people,
                      start=route.start)
@@ -586,7 +595,7 @@ def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
 
 
 def episode(s: EpisodeSetup, index: int, seed: int, localization: str = "truth",
-            controller: str = "rpp") -> list[GoalResult]:
+            controller: str | Controller = "rpp") -> list[GoalResult]:
     """One seeded episode; the route's rows."""
     return run_episode(s, index, seed, localization_source(s, localization, seed),
                        controller).results
