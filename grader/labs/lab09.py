@@ -263,6 +263,7 @@ inflate = Exercise(
     hidden=_inflate_hidden, rtol=0.0, atol=0.0,
     diagnostics=_INFLATE_MISTAKES,
     blocked=_BLOCKED,
+    uses=("inflation_cost",),
 )
 
 
@@ -543,6 +544,7 @@ astar = Exercise(
                    "cells are (row, col): free[row, col], not free[x][y]"),
     ),
     blocked=_BLOCKED,
+    uses=("octile_distance",),
 )
 
 

@@ -14,6 +14,7 @@ import heapq
 import itertools
 import math
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -32,9 +33,13 @@ that must keep full marks for every student (each lab's section adds its own).""
 
 
 def hints(exercise, case, fn) -> set[str] | None:
-    """None when ``fn`` passes ``case``, else the names of the hints its output gets."""
+    """None when ``fn`` passes ``case``, else the names of the hints its output gets. Judging
+    the output (the reference, the comparison, the diagnostics) must raise no warning: a
+    student's inf or NaN gets a message, never a RuntimeWarning in the check's output."""
     got = fn(*case.args, **case.kwargs)
-    verdict = explain(exercise, case, got)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        verdict = explain(exercise, case, got)
     if verdict is None:
         return None
     problem, hint = verdict
