@@ -61,10 +61,48 @@ def _as_array(value: Any) -> np.ndarray | None:
     return None
 
 
+SHOWN_CELLS = 3
+"""differing cells of an integer or boolean array a message names."""
+
+
+def _value(value: Any, kind: str) -> str:
+    if kind == "b":
+        return str(bool(value))
+    number = float(value)
+    return str(int(number)) if number.is_integer() else _fmt(number)
+
+
+def _exact_cells(e_arr: np.ndarray, g_arr: np.ndarray, e_f: np.ndarray, g_f: np.ndarray,
+                 path: str) -> str | None:
+    """Integers or booleans compared cell by cell: ``None`` when all are equal, else how many
+    differ and the first few, each at its index with what was expected and what came back
+    (a printed array elides its middle, where the differences often are)."""
+    differ = (e_f != g_f) & ~(np.isnan(e_f) & np.isnan(g_f))
+    count = int(np.count_nonzero(differ))
+    if not count:
+        return None
+    kind = e_arr.dtype.kind
+    cells = np.argwhere(differ)[:SHOWN_CELLS]
+    shown = "; ".join(
+        f"at {tuple(int(i) for i in cell)} expected {_value(e_arr[tuple(cell)], kind)}, got "
+        f"{_value(g_arr[tuple(cell)], kind if g_arr.dtype.kind == 'b' else 'f')}"
+        for cell in cells)
+    more = f"; … and {count - len(cells)} more" if count > len(cells) else ""
+    what = "booleans" if kind == "b" else "exact integers"
+    whole = (f" (expected {_fmt(e_arr)}, got {_fmt(g_arr)})"
+             if e_arr.size <= 12 else "")
+    return (f"{path}: {count} of {e_arr.size} values differ ({what}){whole}: "
+            f"{shown}{more}")
+
+
 def generic_hint(expected: np.ndarray, got: np.ndarray, rtol: float, atol: float) -> str:
     """A hint when ``got`` relates to ``expected`` the way a known mistake would."""
-    e = np.asarray(expected, dtype=np.float64)
-    g = np.asarray(got, dtype=np.float64)
+    with np.errstate(all="ignore"):  # inf or NaN among the values: no warning, no hint
+        return _generic_hint(np.asarray(expected, dtype=np.float64),
+                             np.asarray(got, dtype=np.float64), rtol, atol)
+
+
+def _generic_hint(e: np.ndarray, g: np.ndarray, rtol: float, atol: float) -> str:
 
     def close(a: np.ndarray, b: np.ndarray) -> bool:
         return a.shape == b.shape and bool(np.allclose(a, b, rtol=max(rtol, 1e-6),
@@ -154,15 +192,24 @@ def compare(expected: Any, got: Any, rtol: float = 1e-6, atol: float = 1e-9,
         return f"{path} has shape {g_arr.shape} but should have shape {e_arr.shape}"
     if g_arr.dtype.kind not in "biuf":
         return f"{path} should hold numbers; got dtype {g_arr.dtype}"
+    with np.errstate(all="ignore"):  # an inf or NaN answer is reported, never warned about
+        return _compare_numbers(e_arr, g_arr, got, expected, rtol, atol, path, hints)
+
+
+def _compare_numbers(e_arr: np.ndarray, g_arr: np.ndarray, got: Any, expected: Any,
+                     rtol: float, atol: float, path: str, hints: bool) -> str | None:
+    """:func:`compare` for two arrays of numbers of the same shape."""
     g_f = g_arr.astype(np.float64)
     e_f = e_arr.astype(np.float64)
+    if e_arr.dtype.kind in "biu" and e_arr.ndim:
+        return _exact_cells(e_arr, g_arr, e_f, g_f, path)
     if np.any(np.isnan(g_f) & ~np.isnan(e_f)):
         idx = np.argwhere(np.isnan(g_f) & ~np.isnan(e_f))[0]
         where = f" at index {tuple(idx.tolist())}" if g_f.ndim else ""
         return f"{path} contains NaN{where} where {_fmt(e_f[tuple(idx)])} was expected"
     if np.any(np.isinf(g_f) & np.isfinite(e_f)):
         return f"{path} contains an infinite value where a finite one was expected"
-    if e_arr.dtype.kind in "iu" and not np.array_equal(g_f, e_f):
+    if e_arr.dtype.kind in "biu" and not np.array_equal(g_f, e_f):
         return f"{path}: expected {_fmt(e_arr)}, got {_fmt(g_arr)} (exact integers)"
     if np.allclose(g_f, e_f, rtol=rtol, atol=atol, equal_nan=True):
         return None

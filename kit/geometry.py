@@ -43,7 +43,8 @@ FloatArray = NDArray[np.float64]
 def wrap_angle(angle: ArrayLike) -> FloatArray:
     """Wrap angles in radians to the half-open interval ``[-pi, pi)``.
 
-    Works on scalars and arrays; returns a float64 array (0-d for a scalar).
+    Works on scalars and arrays; returns a float64 array (0-d for a scalar). An infinite or
+    NaN angle has no direction: it wraps to NaN, without a warning.
 
     >>> float(wrap_angle(3 * np.pi / 2))
     -1.5707963267948966
@@ -54,7 +55,8 @@ def wrap_angle(angle: ArrayLike) -> FloatArray:
         w = (angle + math.pi) % (2.0 * math.pi) - math.pi
         return np.asarray(w - 2.0 * math.pi if w >= math.pi else w)
     a = np.asarray(angle, dtype=np.float64)
-    wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
+    with np.errstate(invalid="ignore"):
+        wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
     # mod can round up to exactly 2*pi for inputs just below a multiple of 2*pi
     return np.where(wrapped >= np.pi, wrapped - 2.0 * np.pi, wrapped)
 
@@ -138,7 +140,8 @@ def transform_points(pose: ArrayLike, points: ArrayLike) -> FloatArray:
     Returns
     -------
     ndarray, shape (M, 2)
-        The same points in the parent frame.
+        The same points in the parent frame; a point with an infinite coordinate (a beam
+        with no return) may come out with NaN in it, without a warning.
     """
     p = check_pose(pose)
     if p.ndim != 1:
@@ -148,7 +151,8 @@ def transform_points(pose: ArrayLike, points: ArrayLike) -> FloatArray:
         raise ValueError(f"points must have shape (M, 2); got shape {pts.shape}")
     c, s = math.cos(p[2]), math.sin(p[2])
     rotation = np.array([[c, -s], [s, c]])
-    return pts @ rotation.T + p[:2]
+    with np.errstate(invalid="ignore"):   # inf · 0 in the rotation: NaN, said above
+        return pts @ rotation.T + p[:2]
 
 
 def yaw_to_quaternion(yaw: ArrayLike) -> FloatArray:

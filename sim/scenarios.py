@@ -44,7 +44,14 @@ from scipy import ndimage
 from kit import geometry, msgs, perception
 from kit.localization import Amcl, AmclParameters
 from kit.mapping import OccupancyGridMap
-from kit.navigation import RUNNING, SUCCEEDED, NavigationCostmap, Navigator, arc_poses
+from kit.navigation import (
+    RUNNING,
+    SUCCEEDED,
+    Controller,
+    NavigationCostmap,
+    Navigator,
+    arc_poses,
+)
 from kit.planning import (
     FREE_SPACE,
     INSCRIBED_INFLATED_OBSTACLE,
@@ -566,9 +573,13 @@ def localization_source(s: EpisodeSetup, localization: str, seed: int) -> Any:
 
 
 def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
-                controller: str = "rpp") -> NavigationNode:
+                controller: str | Controller = "rpp",
+                progress_bar: str | None = None) -> NavigationNode:
     """One seeded episode with a localization source; the node (its ``results``, its
-    ``pose_errors``). With SLAM the navigator starts from unknown space."""
+    ``pose_errors``, its ``trail``). With SLAM the navigator starts from unknown space.
+    ``controller``: ``"rpp"``, ``"dwb"`` or a controller object (e.g. the kit's
+    controllers with a student's functions in them, Lab 10); ``progress_bar`` names a bar
+    over the episode's simulated time (:func:`kit.progress.progress`)."""
     route = s.route
     sim = Simulation(world=s.world, robot=s.robot, seed=seed, people=route.people,
                      start=route.start)
@@ -580,15 +591,16 @@ def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
     limits = [30.0 + 4.0 * (x if math.isfinite(x) else 30.0) / cruise for x in s.shortest]
     node = NavigationNode(nav, localization, route.goals, limits, index, s.shortest)
     runner = Runner(sim, [WheelOdometryNode(), node], record_rate=1.0)
-    runner.run(sum(limits) + 1.0, until=lambda r: node.done)
+    runner.run(sum(limits) + 1.0, until=lambda r: node.done, progress_bar=progress_bar)
     return node
 
 
 def episode(s: EpisodeSetup, index: int, seed: int, localization: str = "truth",
-            controller: str = "rpp") -> list[GoalResult]:
+            controller: str | Controller = "rpp",
+            progress_bar: str | None = None) -> list[GoalResult]:
     """One seeded episode; the route's rows."""
     return run_episode(s, index, seed, localization_source(s, localization, seed),
-                       controller).results
+                       controller, progress_bar).results
 
 
 def navigate(world: str = "office", robot: str | RobotDescription = "uiabot", episodes: int = 20,

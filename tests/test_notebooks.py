@@ -4,6 +4,7 @@ says "not implemented yet". (The solution notebooks are checked by nbval: `make 
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -49,6 +50,29 @@ def test_student_lab_runs_top_to_bottom_without_an_exception(path, monkeypatch):
         assert "not implemented yet" in text, (function, text)
     for function, number in needs:  # each skipped cell names a real exercise, rightly numbered
         assert functions.index(function) + 1 == int(number)
+    assert not empty_figures(nb), f"figures drawn by cells that stopped: {empty_figures(nb)}"
+    for cell in nb.cells:           # the student's parts of the whole system wait for them
+        if cell.get("id") in YOURS:
+            assert NEEDS.search(stream_text(cell)), (cell.id, stream_text(cell))
+
+
+YOURS = {"09-26d", "10-18b", "10-23b", "10-23e"}
+"""Cells that run the student's functions inside the kit's planner or controllers (Labs 09,
+10): untouched they print only the line naming the missing exercise; the kit's own run is the
+cell before each."""
+
+
+def stream_text(cell) -> str:
+    return "".join(o.get("text", "") for o in cell.get("outputs", ())
+                   if o.output_type == "stream")
+
+
+def empty_figures(nb) -> list[str]:
+    """Cells that stopped at an unfinished exercise yet show a figure (half drawn or empty:
+    a plot must come after everything it needs is computed)."""
+    return [str(cell.get("id")) for cell in nb.cells if cell.cell_type == "code"
+            and NEEDS.search(stream_text(cell))
+            and any("image/png" in o.get("data", {}) for o in cell.outputs)]
 
 
 @pytest.mark.parametrize("path", SOLUTION_NOTEBOOKS, ids=lambda p: p.name)
@@ -148,3 +172,211 @@ def test_nbvals_sanitizer_unsigns_zeros_and_nothing_else():
     assert sanitize("x -0.000 m, -0 s") == "x 0.000 m, 0 s"
     assert sanitize("-0.00e+00") == "0.00e+00"
     assert sanitize("-0.05 and 10-0.5 and -0.01e+00") == "-0.05 and 10-0.5 and -0.01e+00"
+
+
+# ------------------------------------------------------------------ progress where it is long
+
+LONG = 5.0
+"""CPU seconds [s] of one cell in the kernel beyond which it must show progress."""
+
+_TIMING = r'''
+import json as _kit_json
+import re as _kit_re
+import time as _kit_time
+
+import kit.progress as _kit_progress
+
+_kit_cells = []
+_kit_bars = [0]
+_kit_real_progress = _kit_progress.progress
+
+
+def _kit_counted(*args, **kwargs):
+    _kit_bars[0] += 1
+    return _kit_real_progress(*args, **kwargs)
+
+
+_kit_progress.progress = _kit_counted   # before any lab module takes it by name
+
+
+def _kit_before(info):
+    global _kit_start
+    shell = get_ipython()
+    if "FAST" in shell.user_ns:
+        shell.user_ns["FAST"] = bool(_kit_re.search(r"progress\(|progress_bar=", info.raw_cell))
+    _kit_start = (info.raw_cell, _kit_time.process_time(), _kit_bars[0])
+
+
+def _kit_after(result):
+    source, cpu, bars = _kit_start
+    _kit_cells.append((source, _kit_time.process_time() - cpu, _kit_bars[0] - bars))
+
+
+get_ipython().events.register("pre_run_cell", _kit_before)
+get_ipython().events.register("post_run_cell", _kit_after)
+'''
+
+
+def progress_shown(cell) -> bool:
+    """A progress bar among a cell's outputs: tqdm's notebook widget, or its text bar."""
+    for output in cell.get("outputs", ()):
+        if "application/vnd.jupyter.widget-view+json" in output.get("data", {}):
+            return True
+        if output.output_type == "stream" and output.name == "stderr" and \
+                re.search(r"\d+%\||\bit/s\b|\bs/it\b", output.text):
+            return True
+    return False
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", SOLUTION_NOTEBOOKS, ids=lambda p: p.name)
+def test_every_long_cell_of_a_solved_lab_shows_progress(path, monkeypatch):
+    """The solved lab run as a student runs it (no KIT_FAST: bars drawn, loops full length),
+    each cell's CPU time measured in the kernel (pre/post_run_cell hooks around
+    time.process_time(), which a loaded machine hardly inflates): a cell over LONG seconds
+    must show a progress bar among its outputs — a structural check of the outputs, not a
+    timing of this test.
+
+    To stay affordable, a cell whose source asks for a bar itself (``progress(`` or
+    ``progress_bar=``) runs with the notebook's FAST on: its loop is shortened, its bar is
+    still drawn (a bar that shows when shortened shows when long), and its outputs must hold
+    one. Every other cell runs in full. The expensive cells are those with bars (Lab 05's
+    filters, Lab 08's CSAIL log), so this costs little more than a KIT_FAST run, where a full
+    run of the eleven labs takes about 2.5 CPU minutes."""
+    monkeypatch.delenv("KIT_FAST", raising=False)
+    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+    for variable in ("KIT_GRADING", "NBGRADER_EXECUTION"):
+        monkeypatch.delenv(variable, raising=False)
+    nb = nbformat.read(path, as_version=4)
+    code = [c for c in nb.cells if c.cell_type == "code" and c.source.strip()]
+    nb.cells.insert(0, nbformat.v4.new_code_cell(_TIMING))
+    nb.cells.append(nbformat.v4.new_code_cell("print(_kit_json.dumps(_kit_cells))"))
+    NotebookClient(nb, timeout=900, allow_errors=False, kernel_name="python3",
+                   resources={"metadata": {"path": str(path.parent)}}).execute()
+    timed = json.loads(stream_text(nb.cells[-1]))
+    by_source = [(source, cpu, bars) for source, cpu, bars in timed
+                 if source != _TIMING and not source.startswith("print(_kit_json")]
+    assert [s for s, _, _ in by_source] == [c.source for c in code]
+    quiet = []
+    for cell, (_, cpu, bars) in zip(code, by_source, strict=True):
+        asks = re.search(r"progress\(|progress_bar=", cell.source) is not None
+        if (cpu > LONG or asks) and not progress_shown(cell):
+            quiet.append(f"{cell.get('id')}: {cpu:.1f} s of CPU, {bars} progress call(s)"
+                         + (" (shortened: it asks for a bar)" if asks else ""))
+    assert not quiet, f"cells without a progress bar: {quiet}"
+
+
+# ------------------------------------------------------------------ Labs 09 and 10: text and output
+
+def solution(name: str):
+    return nbformat.read(ROOT / "solutions" / name, as_version=4)
+
+
+def cell(nb, cell_id: str):
+    return next(c for c in nb.cells if c.get("id") == cell_id)
+
+
+def test_lab09_says_its_office_paths_cross_the_glass_where_the_first_one_does():
+    """The first path across the office (section 3) is introduced by a text that says the map
+    has no glass and that section 7 fences it; section 2 points at section 7 too."""
+    nb = solution("09-planning.ipynb")
+    first_plan = next(i for i, c in enumerate(nb.cells)
+                      if c.cell_type == "code" and "astar(free, start, goal)" in c.source)
+    before = nb.cells[first_plan - 1]
+    assert before.cell_type == "markdown"
+    assert "glass" in before.source and "Section 7" in before.source
+    assert re.search(r"## 7\. The glass", "".join(c.source for c in nb.cells))
+    assert "section 7)" in cell(nb, "09-09").source
+
+
+def test_lab09_smoothing_output_shows_what_its_text_claims():
+    """"Both shorten a grid path and lower its curvature": the printed lengths and largest
+    curvatures of the smoothed paths are below the planner's, and the figure zooms in (three
+    panels: two turns and the curvature along the path)."""
+    nb = solution("09-planning.ipynb")
+    assert "shorten a grid path and lower its curvature" in cell(nb, "09-23").source
+    rows = re.findall(r"^(.+?)\s+([\d.]+) m\s+mean \|curvature\|\s+([\d.]+) 1/m, largest\s+"
+                      r"([\d.]+) 1/m$", stream_text(cell(nb, "09-24")), re.MULTILINE)
+    figures = {name.strip(): (float(a), float(b), float(c)) for name, a, b, c in rows}
+    planner = figures.pop("planner's path")
+    assert len(figures) == 2
+    for length, mean, largest in figures.values():
+        assert length < planner[0] and mean < planner[1] and largest < planner[2]
+    assert "set_xlim" in cell(nb, "09-24").source and "subplots(1, 3" in cell(nb, "09-24").source
+
+
+def test_lab10_dwb_figures_score_the_same_samples_and_show_invalid_ones():
+    nb = solution("10-navigation.ipynb")
+    kits = re.search(r"the kit's DWB: (\d+) samples, (\d+) invalid",
+                     stream_text(cell(nb, "10-18")))
+    yours = re.search(r"yours: (\d+) samples, (\d+) invalid .*the same samples as the kit's: "
+                      r"True", stream_text(cell(nb, "10-18b")))
+    assert kits and yours
+    assert kits.group(1) == yours.group(1) == "99"         # 9 speeds × 11 turn rates
+    assert int(kits.group(2)) > 0 and int(yours.group(2)) > 0
+    assert "grey" in cell(nb, "10-17").source
+
+
+def test_lab10_states_rpps_order_of_operations_as_a_formula():
+    text = cell(solution("10-navigation.ipynb"), "10-07").source
+    for step in (r"v_1 = v_d \cdot \min(1,\ R / R_{min})", r"v_2 = \max(v_1,\ v_{min})",
+                 r"v_3 = \min\big(v_2,\ \max(s \cdot v_2,\ v_a)\big)", r"v = \min(v_3,\ v_d)"):
+        assert step in text, step
+
+
+# ------------------------------------------------------------------ the student's parts, degraded
+
+def _run_cells(name: str, ids: list[str], replace: dict[str, tuple[str, str]]) -> dict:
+    """The solution's cells ``ids`` alone, in order, with text swapped in some (KIT_FAST);
+    the executed cells by id."""
+    nb = solution(name)
+    cells = [cell(nb, i) for i in ids]
+    for i, (old, new) in replace.items():
+        c = next(c for c in cells if c.get("id") == i)
+        assert old in c.source, (i, old)
+        c.source = c.source.replace(old, new)
+    nb.cells = cells
+    NotebookClient(nb, timeout=600, allow_errors=False, kernel_name="python3",
+                   resources={"metadata": {"path": str(ROOT / "solutions")}}).execute()
+    return {c.get("id"): c for c in nb.cells}
+
+
+def _png(c) -> str:
+    return next(o.data["image/png"] for o in c.outputs if "image/png" in o.get("data", {}))
+
+
+@pytest.mark.slow
+def test_lab10_a_degraded_curvature_changes_your_run_and_its_figure(monkeypatch):
+    """Lab 10's last section drives with the student's functions: a curvature without its 2
+    drives another episode (the table and the figure change), the kit's run beside it not."""
+    monkeypatch.setenv("KIT_FAST", "1")
+    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+    ids = ["10-01", "10-03", "10-08", "10-12", "10-15", "10-20", "10-18", "10-23", "10-23b"]
+    right = _run_cells("10-navigation.ipynb", ids, {})
+    wrong = _run_cells("10-navigation.ipynb", ids,
+                       {"10-03": ("2.0 * y / d2", "y / d2")})
+    stored = cell(solution("10-navigation.ipynb"), "10-23b")
+    assert stream_text(right["10-23b"]) == stream_text(stored)
+    assert stream_text(wrong["10-23b"]) != stream_text(stored)
+    assert stream_text(wrong["10-23"]) == stream_text(right["10-23"])   # the kit's: the same
+    assert _png(wrong["10-23"]) == _png(right["10-23"])
+    assert _png(wrong["10-23b"]) != _png(right["10-23b"])
+
+
+@pytest.mark.slow
+def test_lab09_a_degraded_astar_changes_your_routes_and_their_figure(monkeypatch):
+    """Lab 09's last section plans the office's routes with the student's inflation and A*: an
+    A* that cuts corners finds other lengths and paths; the kit's planner beside it not."""
+    monkeypatch.setenv("KIT_FAST", "1")
+    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+    ids = ["09-01", "09-03", "09-05", "09-07", "09-10", "09-12", "09-15", "09-26", "09-26b",
+           "09-26d"]
+    cutting = ("if dr and dc and not (free[r + dr, c] and free[r, c + dc]):",
+               "if False:")
+    right = _run_cells("09-planning.ipynb", ids, {})
+    wrong = _run_cells("09-planning.ipynb", ids, {"09-15": cutting})
+    stored = cell(solution("09-planning.ipynb"), "09-26d")
+    assert stream_text(right["09-26d"]) == stream_text(stored)
+    assert stream_text(wrong["09-26d"]) != stream_text(stored)
+    assert stream_text(wrong["09-26b"]) == stream_text(right["09-26b"])
+    assert _png(wrong["09-26d"]) != _png(right["09-26d"])

@@ -103,73 +103,85 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
             log(f"{device} on {port}: {src.description}")
             readers.append(Reader(src.device, _renamed(src.read, names), q, src.period,
                                   on_error=_failed(src.device, log), reopen=src.reopen).start())
-        counts: dict[str, int] = {}
-        first: dict[str, int] = {}
-        last: dict[str, int] = {}
-        disorder: dict[str, int] = {}
+        tally = _Tally(on_message)
         with BagWriter(out) as bag:
-
-            def write(topic: str, time_ns: int, message: Any) -> None:
-                bag.write(topic, message, time_ns)
-                counts[topic] = counts.get(topic, 0) + 1
-                first.setdefault(topic, time_ns)
-                if topic in last and time_ns <= last[topic]:
-                    disorder[topic] = disorder.get(topic, 0) + 1
-                last[topic] = max(time_ns, last.get(topic, time_ns))
-                if on_message is not None:
-                    on_message(topic, time_ns, message)
-
+            tally.bag = bag
             start = time.time()
             stamp = msgs.Time.from_sec(start)
-            write("/tf_static", stamp.to_nsec(),
-                  msgs.TFMessage(description.static_transforms(stamp)))
+            tally.write("/tf_static", stamp.to_nsec(),
+                        msgs.TFMessage(description.static_transforms(stamp)))
             end = time.monotonic() + duration
-
-            def drain(wait: float) -> None:
-                try:
-                    while True:
-                        write(*q.get(timeout=wait))
-                        wait = 0.0
-                except queue.Empty:
-                    pass
-
             try:
                 while time.monotonic() < end and any(r.alive for r in readers) and \
                         not (stop is not None and stop.is_set()):
-                    drain(0.05)
+                    tally.drain(q, 0.05)
             except KeyboardInterrupt:
                 log("stopped (Ctrl-C)")
             for r in readers:
                 r.stop()
-            drain(0.0)
+            tally.drain(q, 0.0)
             gaps = [g for r in readers for g in r.gaps]
             if gaps:
                 bag.custom_data("kit_record.gaps", "; ".join(
                     f"{g.device} {g.start}..{'' if g.end is None else g.end} ns" for g in gaps))
                 bag.custom_data("kit_record.gap_reasons",
                                 "; ".join(g.describe() for g in gaps))
-        elapsed = max(time.time() - start, 1e-9)
-        for r in readers:
-            for g in r.gaps:
-                log(f"gap: {g.describe()}")
-            if r.error is not None:
-                log(f"{r.name}: stopped early: {r.error}")
-            elif r.timeouts or r.errors:
-                log(f"{r.name}: {r.timeouts} reads timed out, {r.errors} bad frames skipped")
-        for topic, n in sorted(counts.items()):
-            span = (last.get(topic, 0) - first.get(topic, 0)) * 1e-9
-            rate = f"{(n - 1) / span:8.2f} Hz" if n > 1 and span > 0 else ""
-            out_of_order = f"  ({disorder[topic]} stamps out of order)" if topic in disorder \
-                else ""
-            log(f"  {topic:24s}{n:8d} messages  {rate}{out_of_order}")
-        log(f"wrote {out} ({sum(counts.values())} messages, {elapsed:.1f} s; rates from the "
-            f"messages' stamps)")
-        return counts
+        _summary(readers, tally, out, max(time.time() - start, 1e-9), log)
+        return tally.counts
     finally:
         for r in readers:
             r.stop()
         for s in sources:
             s.close()
+
+
+class _Tally:
+    """Every message of a recording through one place, in the order written: the bag, the
+    counts and stamps per topic, and the live view's callback."""
+
+    def __init__(self, on_message: Callable[[str, int, Any], None] | None) -> None:
+        self.on_message = on_message
+        self.bag: Any = None
+        self.counts: dict[str, int] = {}
+        self.first: dict[str, int] = {}
+        self.last: dict[str, int] = {}
+        self.disorder: dict[str, int] = {}
+
+    def write(self, topic: str, time_ns: int, message: Any) -> None:
+        self.bag.write(topic, message, time_ns)
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+        self.first.setdefault(topic, time_ns)
+        if topic in self.last and time_ns <= self.last[topic]:
+            self.disorder[topic] = self.disorder.get(topic, 0) + 1
+        self.last[topic] = max(time_ns, self.last.get(topic, time_ns))
+        if self.on_message is not None:
+            self.on_message(topic, time_ns, message)
+
+    def drain(self, q: queue.Queue[Any], wait: float) -> None:
+        try:
+            while True:
+                self.write(*q.get(timeout=wait))
+                wait = 0.0
+        except queue.Empty:
+            pass
+
+
+def _summary(readers: list[Any], tally: _Tally, out: Path, elapsed: float, log: Any) -> None:
+    for r in readers:
+        for g in r.gaps:
+            log(f"gap: {g.describe()}")
+        if r.error is not None:
+            log(f"{r.name}: stopped early: {r.error}")
+        elif r.timeouts or r.errors:
+            log(f"{r.name}: {r.timeouts} reads timed out, {r.errors} bad frames skipped")
+    for topic, n in sorted(tally.counts.items()):
+        span = (tally.last.get(topic, 0) - tally.first.get(topic, 0)) * 1e-9
+        rate = f"{(n - 1) / span:8.2f} Hz" if n > 1 and span > 0 else ""
+        out_of_order = f"  ({tally.disorder[topic]} stamps out of order)" \
+            if topic in tally.disorder else ""
+        log(f"  {topic:24s}{n:8d} messages  {rate}{out_of_order}")
+    log(f"wrote {out} ({sum(tally.counts.values())} messages, {elapsed:.1f} s; rates from the "
+        f"messages' stamps)")
 
 
 def _failed(name: str, log: Any) -> Callable[[BaseException], None]:

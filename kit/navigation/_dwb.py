@@ -34,6 +34,7 @@ obstacles.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -155,11 +156,20 @@ class DwbController:
     ``set_plan(path, goal_yaw)`` then, each period, ``compute_velocity_commands(pose,
     velocity, costmap)`` → ``(v, ω)``; the last scored :class:`Trajectories` stay in
     ``last``.
+
+    ``window(v, w, sim_time, max_v, max_w, acc_v, acc_w, n_v, n_w) -> (S, 2)`` and
+    ``rollout(pose, v, w, sim_time, steps) -> (steps, 3)``, when given, take the place of
+    :func:`dynamic_window` and of the ramped forward simulation (each sample then held
+    constant over ``sim_time``) — a student's functions (Lab 10) scored by the critics; the
+    window is opened with ``acc_lim_x`` both ways, from ``min_vel_x`` = 0.
     """
 
     def __init__(self, params: DwbParameters | None = None,
-                 footprint: ArrayLike | None = None, circumscribed_cost: int = 0) -> None:
+                 footprint: ArrayLike | None = None, circumscribed_cost: int = 0, *,
+                 window: Callable[..., ArrayLike] | None = None,
+                 rollout: Callable[..., ArrayLike] | None = None) -> None:
         self.params = params or DwbParameters()
+        self.window, self.rollout = window, rollout
         self.circumscribed_cost = int(circumscribed_cost)
         """Centres cheaper than this skip the footprint check (0: check every pose)."""
         self.footprint = (np.asarray(footprint, dtype=np.float64) if footprint is not None
@@ -194,9 +204,7 @@ class DwbController:
         integrated step by step (Euler, as DWB's generator)."""
         p = self.params
         v0, w0 = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
-        reach = max(float(np.max(np.abs(vx))) * p.sim_time / p.linear_granularity,
-                    float(np.max(np.abs(vth))) * p.sim_time / p.angular_granularity, 1.0)
-        steps = math.ceil(reach)
+        steps = self.steps(vx, vth)
         dt = p.sim_time / steps
         k = np.arange(1, steps + 1) * dt
         v = v0 + np.clip((vx - v0)[:, None], p.decel_lim_x * k, p.acc_lim_x * k)
@@ -206,6 +214,36 @@ class DwbController:
         x = pose[0] + np.cumsum(v * np.cos(heading) * dt, axis=1)
         y = pose[1] + np.cumsum(v * np.sin(heading) * dt, axis=1)
         return np.stack([x, y, th], axis=-1)
+
+    def steps(self, vx: FloatArray, vth: FloatArray) -> int:
+        """Steps of every trajectory: the fastest sample's, at most ``linear_granularity``
+        metres and ``angular_granularity`` radians each."""
+        p = self.params
+        reach = max(float(np.max(np.abs(vx))) * p.sim_time / p.linear_granularity,
+                    float(np.max(np.abs(vth))) * p.sim_time / p.angular_granularity, 1.0)
+        return math.ceil(reach)
+
+    def samples(self, pose: FloatArray, velocity: ArrayLike
+                ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``(vx (S,), vθ (S,), poses (S, T, 3))``: the window's samples and their
+        trajectories (the ``window`` and ``rollout`` given, else the kit's)."""
+        p = self.params
+        if self.window is None:
+            vx, vth = dynamic_window(velocity, p)
+        else:
+            v, w = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
+            rows = np.asarray(self.window(v, w, p.sim_time, p.max_vel_x, p.max_vel_theta,
+                                          p.acc_lim_x, p.acc_lim_theta, p.vx_samples,
+                                          p.vtheta_samples), dtype=np.float64).reshape(-1, 2)
+            vx, vth = rows[:, 0].copy(), rows[:, 1].copy()
+        if self.rollout is None:
+            return vx, vth, self.simulate(pose, vx, vth, velocity)
+        steps = self.steps(vx, vth)
+        start = (float(pose[0]), float(pose[1]), float(pose[2]))
+        poses = np.stack([np.asarray(self.rollout(start, float(a), float(b), p.sim_time, steps),
+                                     dtype=np.float64).reshape(steps, 3)
+                          for a, b in zip(vx, vth, strict=True)])
+        return vx, vth, poses
 
     # ------------------------------------------------------------------ the local plan
     def local_plan(self, pose: FloatArray, costmap: Costmap) -> FloatArray:
@@ -254,8 +292,7 @@ class DwbController:
         p = self.params
         if len(self.path) == 0:
             raise ControlError("no path to follow")
-        vx, vth = dynamic_window(velocity, p)
-        poses = self.simulate(pose, vx, vth, velocity)
+        vx, vth, poses = self.samples(pose, velocity)
         if self._outline is None or self._outline_res != costmap.resolution:
             self._outline = outline_points(self.footprint, costmap.resolution)
             self._outline_res = costmap.resolution

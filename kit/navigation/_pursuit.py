@@ -17,6 +17,7 @@ Parameter names and defaults are Nav2's.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -148,6 +149,15 @@ class RppParameters:
 class RegulatedPurePursuit:
     """Nav2's Regulated Pure Pursuit controller.
 
+    ``curvature(pose, carrot) -> κ`` [1/m] and ``speed(curvature, remaining, desired,
+    min_radius, min_speed, approach_dist, min_approach) -> v`` [m/s] (the parameters Nav2's
+    ``desired_linear_vel``, ``regulated_linear_scaling_min_radius``,
+    ``regulated_linear_scaling_min_speed``, ``approach_velocity_scaling_dist`` and
+    ``min_approach_linear_velocity``), when given, take the place of the controller's own
+    curvature and of its curvature and approach regulation — a student's functions (Lab 10)
+    inside the whole controller. The cost regulation has no place in such a ``speed``: it
+    must then be off.
+
     >>> c = RegulatedPurePursuit()
     >>> c.set_plan([(0.0, 0.0), (5.0, 0.0)])
     >>> v, w = c.compute_velocity_commands((0.0, 0.0, 0.0), (0.5, 0.0))
@@ -156,8 +166,15 @@ class RegulatedPurePursuit:
     """
 
     def __init__(self, params: RppParameters | None = None,
-                 footprint: ArrayLike | None = None) -> None:
+                 footprint: ArrayLike | None = None, *,
+                 curvature: Callable[[ArrayLike, ArrayLike], float] | None = None,
+                 speed: Callable[..., float] | None = None) -> None:
         self.params = params or RppParameters()
+        if speed is not None and self.params.use_cost_regulated_linear_velocity_scaling:
+            raise ValueError("a speed function replaces the curvature and approach "
+                             "regulation only: turn use_cost_regulated_linear_velocity_scaling"
+                             " off to use one")
+        self.curvature, self.speed = curvature, speed
         self.footprint = (np.asarray(footprint, dtype=np.float64) if footprint is not None
                           else np.array([[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]]))
         self.path = np.zeros((0, 2))
@@ -204,7 +221,12 @@ class RegulatedPurePursuit:
                     self._check_collision(pose_, 0.0, w, 0.0, costmap)
                 return 0.0, w
         d2 = float(local @ local)
-        curvature = 0.0 if d2 < 1e-12 else 2.0 * float(local[1]) / d2
+        if self.curvature is not None:
+            curvature = float(self.curvature((float(pose_[0]), float(pose_[1]),
+                                              float(pose_[2])),
+                                             (float(carrot[0]), float(carrot[1]))))
+        else:
+            curvature = 0.0 if d2 < 1e-12 else 2.0 * float(local[1]) / d2
         v = self._regulate(curvature, remaining, pose_, costmap)
         v = float(np.clip(v, v_now - p.max_linear_accel * dt, v_now + p.max_linear_accel * dt))
         v = max(v, 0.0)
@@ -236,6 +258,12 @@ class RegulatedPurePursuit:
     def _regulate(self, curvature: float, remaining: float, pose: FloatArray,
                   costmap: Costmap | None) -> float:
         p = self.params
+        if self.speed is not None:
+            return float(self.speed(curvature, remaining, p.desired_linear_vel,
+                                    p.regulated_linear_scaling_min_radius,
+                                    p.regulated_linear_scaling_min_speed,
+                                    p.approach_velocity_scaling_dist,
+                                    p.min_approach_linear_velocity))
         v = p.desired_linear_vel
         if p.use_regulated_linear_velocity_scaling and abs(curvature) > 1e-9:
             radius = 1.0 / abs(curvature)

@@ -14,6 +14,7 @@ import heapq
 import itertools
 import math
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -26,12 +27,19 @@ LABS = lab_names()  # every lab with a spec must have its mistakes catalogued he
 HIDDEN_SEEDS = (1, 2)
 SQRT2 = math.sqrt(2)
 DIAG = re.compile(r"this is what (.+?) gives: ")
+HONEST: dict[str, dict[str, list]] = {}
+"""Honest work by lab, then function: (name, a correct solution written another way) pairs
+that must keep full marks for every student (each lab's section adds its own)."""
 
 
 def hints(exercise, case, fn) -> set[str] | None:
-    """None when ``fn`` passes ``case``, else the names of the hints its output gets."""
+    """None when ``fn`` passes ``case``, else the names of the hints its output gets. Judging
+    the output (the reference, the comparison, the diagnostics) must raise no warning: a
+    student's inf or NaN gets a message, never a RuntimeWarning in the check's output."""
     got = fn(*case.args, **case.kwargs)
-    verdict = explain(exercise, case, got)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        verdict = explain(exercise, case, got)
     if verdict is None:
         return None
     problem, hint = verdict
@@ -714,31 +722,41 @@ LAB08 = {
 
 # ------------------------------------------------------------------ lab 09 as students err
 
-def _cost(d, r, k, scale=252.0, lethal=True):
+def _cost(d, r, k, scale=252.0, lethal=True, cap=252.0, inside=np.less_equal, floor=True,
+          offset=True):
     d = np.asarray(d, float)
-    c = np.where(d <= r, 253.0, np.minimum(scale * np.exp(-k * (d - r)), 252.0))
+    decay = scale * np.exp(-k * (d - r if offset else d))
+    decay = np.floor(decay) if floor else np.rint(decay)
+    c = np.where(inside(d, r), 253.0, decay if cap is None else np.minimum(decay, cap))
     if lethal:
         c = np.where(d == 0, 254.0, c)
     return c.astype(np.uint8)
 
 
-def _inflate(lethal, res, r_in, radius, k, reach_cells=True, cost_metres=True):
+def _inflate(lethal, res, r_in, radius, k, reach_cells=True, cost_metres=True, ceil=True,
+             metric="euclidean"):
+    from scipy import ndimage
+
     lethal = np.asarray(lethal, bool)
     out = np.zeros(lethal.shape, np.uint8)
     sources = np.argwhere(lethal)
     if not len(sources):
         return out
-    rows, cols = np.indices(lethal.shape)
-    d2 = np.min([(rows - r) ** 2 + (cols - c) ** 2 for r, c in sources], axis=0)
-    cells = np.sqrt(d2)
-    reach = math.ceil(radius / res) if reach_cells else radius
+    if metric == "of the obstacles":             # distance_transform_edt(lethal)
+        cells = ndimage.distance_transform_edt(lethal)
+    elif metric == "chessboard":                 # distance_transform_cdt(~lethal)
+        cells = ndimage.distance_transform_cdt(~lethal).astype(float)
+    else:
+        rows, cols = np.indices(lethal.shape)
+        cells = np.sqrt(np.min([(rows - r) ** 2 + (cols - c) ** 2 for r, c in sources], axis=0))
+    reach = (math.ceil(radius / res) if ceil else radius / res) if reach_cells else radius
     near = cells <= reach
     out[near] = _cost(cells[near] * (res if cost_metres else 1.0), r_in, k)
     return out
 
 
 def _astar_as_students_err(free, start, goal, diagonal=SQRT2, cut=False, weight=1.0,
-                           transposed=False):
+                           transposed=False, manhattan=False):
     free = np.asarray(free, bool)
     if transposed:            # cells read as (x, y): free[y][x] with x = row, y = col
         free = free.T
@@ -750,6 +768,8 @@ def _astar_as_students_err(free, start, goal, diagonal=SQRT2, cut=False, weight=
 
     def octile(a):
         dr, dc = abs(a[0] - goal[0]), abs(a[1] - goal[1])
+        if manhattan:
+            return dr + dc
         straight, diag = max(dr, dc) - min(dr, dc), min(dr, dc)
         return weight * (straight + diagonal * diag)
 
@@ -780,66 +800,180 @@ LAB09 = {
         ("the obstacle cell itself not lethal", lambda d, r, k: _cost(d, r, k, lethal=False)),
         ("253 · exp(…) instead of (253 − 1) · exp(…)",
          lambda d, r, k: _cost(d, r, k, scale=253.0)),
+        ("254 · exp(…) instead of (253 − 1) · exp(…)",
+         lambda d, r, k: _cost(d, r, k, scale=254.0, cap=None)),
+        ("the inscribed radius exclusive (d < r_in)",
+         lambda d, r, k: _cost(d, r, k, inside=np.less)),
+        ("the decayed cost rounded instead of truncated",
+         lambda d, r, k: _cost(d, r, k, floor=False)),
+        ("the decay measured from the obstacle (exp(−k d))",
+         lambda d, r, k: _cost(d, r, k, offset=False)),
     ],
     "inflate": [
         ("the inflation radius in metres against distances in cells",
          lambda *a: _inflate(*a, reach_cells=False)),
         ("distances in cells costed as metres", lambda *a: _inflate(*a, cost_metres=False)),
+        ("the reach not rounded up to whole cells", lambda *a: _inflate(*a, ceil=False)),
+        ("the distances of the obstacle cells instead of the free ones",
+         lambda *a: _inflate(*a, metric="of the obstacles")),
+        ("chessboard distances (distance_transform_cdt)",
+         lambda *a: _inflate(*a, metric="chessboard")),
     ],
     "octile_distance": [
         ("a diagonal step costing 1",
          lambda a, b: float(max(abs(a[0] - b[0]), abs(a[1] - b[1])))),
         ("Manhattan distance on an 8-connected grid",
          lambda a, b: float(abs(a[0] - b[0]) + abs(a[1] - b[1]))),
+        ("the Euclidean distance", lambda a, b: math.dist(a, b)),
     ],
     "astar": [
         ("a diagonal step costing 1", lambda *a: _astar_as_students_err(*a, diagonal=1.0)),
         ("corner cutting", lambda *a: _astar_as_students_err(*a, cut=True)),
         ("a heuristic that is not admissible",
          lambda *a: _astar_as_students_err(*a, weight=3.0)),
+        ("a heuristic that is not admissible",          # Manhattan on 8 moves (issue 26)
+         lambda *a: _astar_as_students_err(*a, manhattan=True)),
+        ("a heuristic that is not admissible",          # 1.5 × octile (issue 26)
+         lambda *a: _astar_as_students_err(*a, weight=1.5)),
         ("row and column swapped", lambda *a: _astar_as_students_err(*a, transposed=True)),
     ],
 }
 
 
+def _astar_honest(free, start, goal, heuristic, *, lifo=False, closed_set=True,
+                  from_parents=False):
+    """A correct A* written another way: any admissible heuristic, either tie order, with or
+    without a closed set, the length summed back along the parents."""
+    free = np.asarray(free, bool)
+    h, w = free.shape
+    start, goal = tuple(start), tuple(goal)
+    g, parent, done, n = {start: 0.0}, {start: None}, set(), 0
+    queue = [(heuristic(start, goal), 0, start)]
+    while queue:
+        f, _, cell = heapq.heappop(queue)
+        if closed_set and cell in done:
+            continue
+        if not closed_set and f > g[cell] + heuristic(cell, goal) + 1e-12:
+            continue                                   # a stale entry
+        if cell == goal:
+            if not from_parents:
+                return g[cell]
+            length, c = 0.0, cell
+            while parent[c] is not None:
+                p = parent[c]
+                length += math.hypot(c[0] - p[0], c[1] - p[1])
+                c = p
+            return length
+        done.add(cell)
+        for dr in (1, 0, -1):
+            for dc in (1, 0, -1):
+                nxt = (cell[0] + dr, cell[1] + dc)
+                if (dr or dc) and 0 <= nxt[0] < h and 0 <= nxt[1] < w and free[nxt] and \
+                        (not (dr and dc) or (free[cell[0] + dr, cell[1]]
+                                             and free[cell[0], cell[1] + dc])):
+                    new = g[cell] + math.hypot(dr, dc)
+                    if new < g.get(nxt, math.inf):
+                        g[nxt], parent[nxt] = new, cell
+                        n += 1
+                        heapq.heappush(queue, (new + heuristic(nxt, goal), -n if lifo else n,
+                                               nxt))
+    return math.inf
+
+
+HONEST["lab09"] = {
+    "inflation_cost": [
+        ("a loop over the cells with math.exp",
+         lambda d, r, k: np.array([254 if x == 0 else 253 if x <= r else
+                                   int(252 * math.exp(-k * (x - r)))
+                                   for x in np.ravel(d)], np.uint8).reshape(np.shape(d))),
+    ],
+    "inflate": [
+        ("distances in metres straight from the transform (sampling=resolution)",
+         lambda *a: _inflate_in_metres(*a)),
+    ],
+    "octile_distance": [
+        ("√2 − 1 times the shorter side on top of the longer one",
+         lambda a, b: max(abs(a[0] - b[0]), abs(a[1] - b[1]))
+         + (SQRT2 - 1) * min(abs(a[0] - b[0]), abs(a[1] - b[1]))),
+    ],
+    "astar": [
+        ("Dijkstra (heuristic 0)", lambda *a: _astar_honest(*a, lambda c, g: 0.0)),
+        ("the Euclidean heuristic", lambda *a: _astar_honest(*a, lambda c, g: math.dist(c, g))),
+        ("the Chebyshev heuristic, newest first among ties",
+         lambda *a: _astar_honest(*a, lambda c, g: max(abs(c[0] - g[0]), abs(c[1] - g[1])),
+                                  lifo=True)),
+        ("octile, no closed set, the length summed along the parents",
+         lambda *a: _astar_honest(*a, lambda c, g: _octile(c, g), closed_set=False,
+                                  from_parents=True)),
+    ],
+}
+
+
+def _inflate_in_metres(lethal, res, r_in, radius, k):
+    from scipy import ndimage
+
+    lethal = np.asarray(lethal, bool)
+    costs = np.zeros(lethal.shape, np.uint8)
+    if not lethal.any():
+        return costs
+    metres = ndimage.distance_transform_edt(~lethal, sampling=res)
+    near = metres <= math.ceil(radius / res) * res + 1e-9
+    costs[near] = HONEST["lab09"]["inflation_cost"][0][1](metres[near], r_in, k)
+    return costs
+
+
+def _octile(a, b):
+    dr, dc = abs(a[0] - b[0]), abs(a[1] - b[1])
+    return max(dr, dc) - min(dr, dc) + SQRT2 * min(dr, dc)
+
+
 # ------------------------------------------------------------------ lab 10 as students err
 
-def _pp_as_students_err(pose, carrot, *, frame=True, two=2.0, use_x=False):
+def _pp_as_students_err(pose, carrot, *, frame=True, two=2.0, use_x=False, turn=-1.0,
+                        sign=1.0):
     dx, dy = carrot[0] - pose[0], carrot[1] - pose[1]
     if frame:
-        c, s = math.cos(pose[2]), math.sin(pose[2])
-        dx, dy = c * dx + s * dy, -s * dx + c * dy
-    return two * (dx if use_x else dy) / (dx * dx + dy * dy)
+        c, s = math.cos(turn * pose[2]), math.sin(turn * pose[2])
+        dx, dy = c * dx - s * dy, s * dx + c * dy
+    return sign * two * (dx if use_x else dy) / (dx * dx + dy * dy)
 
 
 def _rpp_as_students_err(k, remaining, desired, min_r, min_v, approach, min_approach, *,
-                         floor=True, near_goal=True, inverted=False):
+                         floor=True, near_goal=True, inverted=False, of_desired=False,
+                         approach_floor=True, floor_last=False, signed=False):
     v = desired
-    r = math.inf if k == 0 else 1 / abs(k)
+    r = math.inf if k == 0 else 1 / (k if signed else abs(k))
     if r < min_r:
         v = desired * (min_r / r if inverted else r / min_r)
-    if floor and v < desired:
+    if floor and not floor_last and v < desired:
         v = max(v, min_v)
     if near_goal and remaining < approach:
-        v = max(v * remaining / approach, min_approach)
+        scaled = (desired if of_desired else v) * remaining / approach
+        v = min(v, max(scaled, min_approach) if approach_floor else scaled)
+    if floor_last and v < desired:
+        v = max(v, min_v)
     return v
 
 
 def _window_as_students_err(v, w, T, max_v, max_w, a_v, a_w, n_v, n_w, *, period=None,
-                            clip=True):
+                            clip=True, whole=False, reverse=False, xy=False):
     t = T if period is None else period
     lo_v, hi_v, lo_w, hi_w = v - a_v * t, v + a_v * t, w - a_w * t, w + a_w * t
+    if whole:
+        lo_v, hi_v, lo_w, hi_w = 0.0, max_v, -max_w, max_w
     if clip:
-        lo_v, hi_v = max(lo_v, 0.0), min(hi_v, max_v)
+        lo_v, hi_v = max(lo_v, -max_v if reverse else 0.0), min(hi_v, max_v)
         lo_w, hi_w = max(lo_w, -max_w), min(hi_w, max_w)
-    return np.array([(a, b) for a in np.linspace(lo_v, hi_v, n_v)
-                     for b in np.linspace(lo_w, hi_w, n_w)])
+    vs, ws = np.linspace(lo_v, hi_v, n_v), np.linspace(lo_w, hi_w, n_w)
+    if xy:
+        return np.array([(a, b) for b in ws for a in vs])
+    return np.array([(a, b) for a in vs for b in ws])
 
 
-def _rollout_as_students_err(pose, v, w, T, steps, *, turn_first=False, dt=None):
+def _rollout_as_students_err(pose, v, w, T, steps, *, turn_first=False, dt=None, start=False):
     x, y, th = pose
     dt = T / steps if dt is None else dt
-    out = []
+    out = [list(pose)] if start else []
     for _ in range(steps):
         th = th + w * dt if turn_first else th
         x, y = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt
@@ -848,11 +982,43 @@ def _rollout_as_students_err(pose, v, w, T, steps, *, turn_first=False, dt=None)
     return np.array(out)
 
 
+def _rollout_on_the_arc(pose, v, w, T, steps):
+    x, y, th = pose
+    out = []
+    for k in range(1, steps + 1):
+        t = k * T / steps
+        if abs(w) < 1e-12:
+            out.append([x + v * t * math.cos(th), y + v * t * math.sin(th), th])
+        else:
+            out.append([x + v / w * (math.sin(th + w * t) - math.sin(th)),
+                        y - v / w * (math.cos(th + w * t) - math.cos(th)), th + w * t])
+    return np.array(out)
+
+
+def _goal_as_students_err(p, g, xy, yaw, *, wrap=True, less=False, heading=True,
+                          absolute=True, squared=False, box=False):
+    dx, dy = g[0] - p[0], g[1] - p[1]
+    e = g[2] - p[2]
+    if wrap:
+        e = math.atan2(math.sin(e), math.cos(e))
+    if absolute:
+        e = abs(e)
+    within = (lambda a, b: a < b) if less else (lambda a, b: a <= b)
+    if box:
+        close = within(abs(dx), xy) and within(abs(dy), xy)
+    else:
+        close = within(dx * dx + dy * dy if squared else math.sqrt(dx * dx + dy * dy), xy)
+    return bool(close and (within(e, yaw) if heading else True))
+
+
 LAB10 = {
     "pure_pursuit_curvature": [
         ("the carrot left in the map frame", lambda p, c: _pp_as_students_err(p, c, frame=False)),
         ("y / L² (the 2 left out)", lambda p, c: _pp_as_students_err(p, c, two=1.0)),
         ("x instead of y", lambda p, c: _pp_as_students_err(p, c, use_x=True)),
+        ("the carrot rotated by +θ instead of −θ",
+         lambda p, c: _pp_as_students_err(p, c, turn=1.0)),
+        ("the curvature's sign flipped", lambda p, c: _pp_as_students_err(p, c, sign=-1.0)),
     ],
     "regulated_speed": [
         ("no floor at regulated_linear_scaling_min_speed",
@@ -860,21 +1026,148 @@ LAB10 = {
         ("no slowing near the goal", lambda *a: _rpp_as_students_err(*a, near_goal=False)),
         ("min_radius / radius instead of radius / min_radius",
          lambda *a: _rpp_as_students_err(*a, inverted=True)),
+        ("the goal approach scaling desired_linear_vel",
+         lambda *a: _rpp_as_students_err(*a, of_desired=True)),
+        ("no floor at min_approach_linear_velocity",
+         lambda *a: _rpp_as_students_err(*a, approach_floor=False)),
+        ("the floor at min_speed applied after the goal approach",
+         lambda *a: _rpp_as_students_err(*a, floor_last=True)),
+        ("the curvature's sign kept in the radius",
+         lambda *a: _rpp_as_students_err(*a, signed=True)),
     ],
     "dynamic_window": [
         ("the window over one control period",
          lambda *a: _window_as_students_err(*a, period=0.05)),
         ("velocities beyond the limits", lambda *a: _window_as_students_err(*a, clip=False)),
+        ("the acceleration limits ignored", lambda *a: _window_as_students_err(*a, whole=True)),
+        ("the speed clipped at −max_v instead of 0",
+         lambda *a: _window_as_students_err(*a, reverse=True)),
+        ("ω varying slowest (meshgrid's default indexing)",
+         lambda *a: _window_as_students_err(*a, xy=True)),
     ],
     "rollout": [
         ("heading turned before the step",
          lambda *a: _rollout_as_students_err(*a, turn_first=True)),
         ("dt = sim_time", lambda p, v, w, T, n: _rollout_as_students_err(p, v, w, T, n, dt=T)),
+        ("the exact arc instead of Euler steps", _rollout_on_the_arc),
+        ("the start pose included", lambda *a: _rollout_as_students_err(*a, start=True)),
     ],
     "goal_reached": [
-        ("the heading error not wrapped",
-         lambda p, g, xy, yaw: bool(math.hypot(g[0] - p[0], g[1] - p[1]) <= xy
-                                    and abs(g[2] - p[2]) <= yaw)),
+        ("the heading error not wrapped", lambda *a: _goal_as_students_err(*a, wrap=False)),
+        ("< instead of ≤ (the tolerances exclusive)",
+         lambda *a: _goal_as_students_err(*a, less=True)),
+        ("the heading not checked", lambda *a: _goal_as_students_err(*a, heading=False)),
+        ("the heading not checked",                     # only the error's sign compared
+         lambda *a: _goal_as_students_err(*a, absolute=False)),
+        ("the distance measured wrong (squared, or per axis)",
+         lambda *a: _goal_as_students_err(*a, squared=True)),
+        ("the distance measured wrong (squared, or per axis)",
+         lambda *a: _goal_as_students_err(*a, box=True)),
+    ],
+}
+
+
+def _pp_honest_angle(pose, carrot):
+    """2 sin α / L, α the carrot's bearing from the heading."""
+    dx, dy = carrot[0] - pose[0], carrot[1] - pose[1]
+    alpha = math.atan2(dy, dx) - pose[2]
+    return 2.0 * math.sin(alpha) / math.hypot(dx, dy)
+
+
+def _pp_honest_matrix(pose, carrot):
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    x, y = np.array([[c, s], [-s, c]]) @ (np.asarray(carrot, float)[:2] - np.asarray(pose)[:2])
+    return float(2 * y / (x ** 2 + y ** 2))
+
+
+def _rpp_honest_nav2(k, remaining, desired, min_r, min_v, approach, min_approach):
+    """Nav2's code path: curvatureConstraint, the floor always, approachVelocityConstraint,
+    then the clamp to [0, desired]."""
+    v = desired
+    radius = abs(1.0 / k) if k else math.inf
+    if radius < min_r:
+        v *= 1.0 - abs(radius - min_r) / min_r
+    v = max(v, min_v)
+    if remaining < approach:
+        slowed = v * (remaining / approach)
+        v = min(v, min_approach if slowed < min_approach else slowed)
+    return min(max(v, 0.0), desired)
+
+
+def _rpp_honest_kit_order(k, remaining, desired, min_r, min_v, approach, min_approach):
+    """The floor only when regulated below desired, the approach as max(min(v, v s), m)."""
+    v = desired * min(1.0, 1.0 / (abs(k) * min_r)) if k else desired
+    if v < desired:
+        v = max(v, min_v)
+    if remaining < approach:
+        v = max(min(v, v * remaining / approach), min_approach)
+    return v
+
+
+def _window_honest_loops(v, w, T, max_v, max_w, a_v, a_w, n_v, n_w):
+    lo_v, hi_v = max(0.0, v - a_v * T), min(max_v, v + a_v * T)
+    lo_w, hi_w = max(-max_w, w - a_w * T), min(max_w, w + a_w * T)
+    rows = []
+    for i in range(n_v):
+        for j in range(n_w):
+            rows.append((lo_v + (hi_v - lo_v) * i / (n_v - 1) if n_v > 1 else lo_v,
+                         lo_w + (hi_w - lo_w) * j / (n_w - 1) if n_w > 1 else lo_w))
+    return np.array(rows)
+
+
+def _rollout_honest_vectorised(pose, v, w, T, steps):
+    dt = T / steps
+    th = pose[2] + w * dt * np.arange(steps + 1)          # heading before each step, and after
+    x = pose[0] + np.cumsum(v * np.cos(th[:-1]) * dt)
+    y = pose[1] + np.cumsum(v * np.sin(th[:-1]) * dt)
+    return np.column_stack([x, y, th[1:]])
+
+
+def _rollout_honest_wrapped(pose, v, w, T, steps):
+    out = _rollout_as_students_err(pose, v, w, T, steps)
+    out[:, 2] = (out[:, 2] + math.pi) % (2 * math.pi) - math.pi
+    return out
+
+
+def _goal_honest(p, g, xy, yaw, *, distance="hypot", wrap="atan2"):
+    dx, dy = p[0] - g[0], p[1] - g[1]
+    e = p[2] - g[2]
+    e = {"atan2": lambda a: math.atan2(math.sin(a), math.cos(a)),
+         "mod": lambda a: (a + math.pi) % (2 * math.pi) - math.pi,
+         "remainder": lambda a: math.remainder(a, 2 * math.pi),
+         "np.angle": lambda a: float(np.angle(np.exp(1j * a)))}[wrap](e)
+    if distance == "squared":
+        close = dx * dx + dy * dy <= xy * xy
+    elif distance == "norm":
+        close = np.linalg.norm([dx, dy]) <= xy
+    else:
+        close = math.hypot(dx, dy) <= xy
+    return bool(close) and abs(e) <= yaw
+
+
+HONEST["lab10"] = {
+    "pure_pursuit_curvature": [
+        ("2 sin α / L", _pp_honest_angle),
+        ("a rotation matrix in numpy", _pp_honest_matrix),
+    ],
+    "regulated_speed": [
+        ("Nav2's own code path", _rpp_honest_nav2),
+        ("the kit's order of operations", _rpp_honest_kit_order),
+    ],
+    "dynamic_window": [
+        ("two loops, the samples spaced by hand", _window_honest_loops),
+    ],
+    "rollout": [
+        ("vectorised with cumulative sums", _rollout_honest_vectorised),
+        ("the heading wrapped after every step", _rollout_honest_wrapped),
+    ],
+    "goal_reached": [
+        ("math.hypot, atan2(sin, cos)", lambda *a: _goal_honest(*a)),
+        ("squared distances, (a + π) mod 2π − π",
+         lambda *a: _goal_honest(*a, distance="squared", wrap="mod")),
+        ("np.linalg.norm, math.remainder",
+         lambda *a: _goal_honest(*a, distance="norm", wrap="remainder")),
+        ("np.angle of a unit complex number", lambda *a: _goal_honest(*a, wrap="np.angle")),
     ],
 }
 
@@ -898,8 +1191,21 @@ COINCIDENT: dict[tuple[str, str], set[str]] = {
     # Lab 06: without inf among the ranges, both slips keep the same out-of-range readings
     ("valid_returns", "range limits ignored"): {"inf taken for a return"},
     ("valid_returns", "inf taken for a return"): {"range limits ignored"},
+    # floor(253 e) and round(252 e) agree wherever the fraction of 252 e is at least 1 − e
+    ("inflation_cost", "253 · exp(…) instead of (253 − 1) · exp(…)"):
+        {"the decayed cost rounded instead of truncated"},
+    ("inflation_cost", "the decayed cost rounded instead of truncated"):
+        {"253 · exp(…) instead of (253 − 1) · exp(…)"},
     ("astar", "a diagonal step costing 1"): {"row and column swapped"},
-    ("astar", "row and column swapped"): {"a diagonal step costing 1"},
+    # Lab 10: where only the window's lowest speed leaves the limits, both slips keep it
+    ("dynamic_window", "velocities beyond the limits"):
+        {"the speed clipped at −max_v instead of 0"},
+    ("dynamic_window", "the speed clipped at −max_v instead of 0"):
+        {"velocities beyond the limits"},
+    # a transposed grid can make the path longer: "longer than the shortest" names both
+    ("astar", "row and column swapped"): {"a diagonal step costing 1",
+                                          "a heuristic that is not admissible"},
+    ("astar", "a heuristic that is not admissible"): {"row and column swapped"},
 }
 ENTRIES = [(lab, function, name, fn) for lab, table in CATALOGUE.items()
            for function, bugs in table.items() for name, fn in bugs]
@@ -966,6 +1272,22 @@ def test_each_classic_mistake_loses_points_for_every_student(lab, function, mist
     spared = _students_spared(exercise, buggy)
     assert not spared, (f"{len(spared)} of {len(SECRETS) * len(STUDENTS)} students' hidden "
                         f"cases miss {mistake!r}, e.g. {spared[:3]}")
+
+
+HONEST_ENTRIES = [(lab, function, name, fn) for lab, table in HONEST.items()
+                  for function, variants in table.items() for name, fn in variants]
+
+
+@pytest.mark.parametrize(("lab", "function", "variant", "honest"), HONEST_ENTRIES,
+                         ids=[f"{lab}.{fn}: {name}" for lab, fn, name, _ in HONEST_ENTRIES])
+def test_honest_variants_keep_full_marks_for_every_student(lab, function, variant, honest):
+    """Another correct formulation passes the public cases and every student's hidden ones."""
+    exercise = load_lab(lab).exercise(function)
+    assert not _fails(exercise, honest, exercise.public), variant
+    failed = [(secret, student) for secret in SECRETS for student in STUDENTS
+              if _fails(exercise, honest, exercise.hidden_cases(
+                  course_seed(exercise.id, student, secret)))]
+    assert not failed, f"{variant!r} loses points for {len(failed)} students, e.g. {failed[:3]}"
 
 
 def test_the_catalogue_covers_every_exercise_and_every_diagnostic():
