@@ -153,6 +153,12 @@ def _run_class(args: argparse.Namespace, spec: LabSpec, submissions: Sequence[An
     print(f"graded {progress.counts['graded']}, kept {progress.counts['reused']} unchanged; "
           f"wrote {out} and {json_path}")
     close_servers()
+    ungraded = [r for r in results if r.status in ("malformed notebook", "refused", "duplicate")]
+    if ungraded:
+        kinds = Counter(r.status for r in ungraded)
+        print(f"{len(ungraded)} rows have no notebook the grader could run "
+              f"({', '.join(f'{k}: {n}' for k, n in sorted(kinds.items()))}; each row's reason "
+              f"says why): {', '.join(r.student for r in ungraded)}")
     failed = [r.student for r in results if r.status == "grader error"]
     if failed:
         print(f"{len(failed)} rows are grader errors (the grader failed, not the student; "

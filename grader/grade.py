@@ -65,6 +65,14 @@ def case_limit(spec: LabSpec, ex: Exercise, timeout: float) -> float:
     return min(10.0, timeout / (2 * max(1, len(spec.exercises))))
 
 
+def wall_limit(cpu_seconds: float) -> float:
+    """How long the grader waits for an answer that may take ``cpu_seconds`` of CPU time.
+    Limits are CPU time (a loaded machine does not fail honest code); this wall-clock bound
+    only catches code that sleeps or ignores its alarm, so it is generous: ten times the CPU
+    time, plus half a minute."""
+    return 10.0 * cpu_seconds + 30.0
+
+
 EPISODE_CPU = 60.0
 """CPU seconds a submission's controller may use in one closed-loop episode."""
 
@@ -108,8 +116,7 @@ class Conversation:
     stderr_bytes: int = 0
 
     def __post_init__(self) -> None:
-        functions = [ex.function for ex in self.spec.exercises]
-        self.cells = [{**c, "mode": _decide(c, functions)} for c in self.notebook.cells]
+        self.cells = [dict(c) for c in self.notebook.cells]
         self.cpu_seconds = int(session_budget(self.spec, self.plan, self.timeout)) + 1
 
     # -- processes
@@ -127,7 +134,7 @@ class Conversation:
             try:
                 header, _ = session.ask("cells", {"cells": runnable,
                                                   "cpu_limit": self.timeout / 2},
-                                        wall=2 * self.timeout)
+                                        wall=wall_limit(self.timeout / 2))
                 header2, _ = session.ask("describe", {"functions": [
                     ex.function for ex in self.spec.exercises]}, wall=30.0)
             except SessionLost as lost:
@@ -179,7 +186,7 @@ class Conversation:
             raise SessionLost("ended")
         payload = {**payload, "cpu_limit": cpu_limit}
         try:
-            return session.ask(op, payload, wall=3 * cpu_limit + 10.0)
+            return session.ask(op, payload, wall=wall_limit(cpu_limit))
         except SessionLost as lost:
             self.end(lost.why)
             raise
@@ -275,18 +282,6 @@ class Conversation:
                 return (f"{text}: cell {cell['position']} (`{cell['first_line']}`) did not "
                         f"run — {error['error']}{at}")
         return text
-
-
-def _decide(cell: dict[str, Any], functions: Sequence[str]) -> str:
-    """A cell's mode where the notebook lost the release's metadata: run it whole when it
-    defines one of the lab's exercise functions, else only its definitions."""
-    if cell.get("mode") != "maybe":
-        return str(cell.get("mode"))
-    import re
-
-    defines = any(re.search(rf"^\s*def\s+{re.escape(f)}\s*\(", cell["source"], re.MULTILINE)
-                  for f in functions)
-    return "run" if defines else "definitions"
 
 
 def _lost_words(lost: SessionLost, limit: float) -> str:
@@ -436,6 +431,8 @@ def classify_ending(ending: Ending, cpu_seconds: int, memory_mb: int, hidden: bo
 
 
 ORDER = ("grader error", "memory", "timeout", "crashed", "output limit")
+HIDDEN_ENDINGS = {"memory": "ran out of memory", "timeout": "ran out of time",
+                  "crashed": "the process ended", "output limit": "printed too much"}
 
 
 def classify(conversation: Conversation, limits: Limits) -> tuple[str, str]:
@@ -456,8 +453,9 @@ def classify(conversation: Conversation, limits: Limits) -> tuple[str, str]:
         if found:
             e = found[0]
             if e.hidden and status != "grader error":
-                # while it held hidden inputs only the kind of ending is told
-                return status, f"{e.reason.split(':')[0]} while running the hidden cases; " \
+                # while it held hidden inputs only the kind of ending is told: its exit code,
+                # signal or answer are the submission's to choose
+                return status, f"{HIDDEN_ENDINGS[status]} while running the hidden cases; " \
                                f"graded as far as it ran"
             suffix = "" if status == "grader error" else "; graded as far as it ran"
             return status, e.reason + suffix

@@ -32,7 +32,7 @@ from __future__ import annotations
 import base64
 import ctypes
 import functools
-import importlib.util
+import importlib
 import json
 import os
 import secrets
@@ -112,11 +112,15 @@ def _real(path: str | Path) -> str:
 
 
 def _package_dirs() -> list[str]:
-    """Where the kit's packages are installed (a folder holding ``__init__.py`` each)."""
+    """Where the kit's packages are installed (a folder holding ``__init__.py`` each): the
+    packages as imported, so that a folder of the same name elsewhere on ``sys.path`` (the
+    tests mirror the packages' names) is never taken for them."""
     dirs: list[str] = []
     for name in PACKAGES:
-        spec = importlib.util.find_spec(name)
-        origin = spec.origin if spec is not None else None
+        try:
+            origin = getattr(importlib.import_module(name), "__file__", None)
+        except ImportError:
+            continue
         if origin and origin.endswith("__init__.py"):
             dirs.append(_real(Path(origin).parent))
     return dirs
@@ -237,13 +241,32 @@ def mount_plan(uids: Sequence[int], limits: Limits,
     if font_cache is not None:  # else matplotlib rebuilds it in the sandbox (≈ 0.5 s)
         plan.append(Mount("file", f"{MPL_DIR}/{font_cache.name}",
                           data=font_cache.read_text(encoding="utf-8"), mode=0o644))
+    hidden: set[str] = set()
     for path, text in (stripped or {}).items():
         plan.append(Mount("data", path, data=text, mode=0o444))
         cache = Path(path).parent / "__pycache__"
         stem = Path(path).stem
-        hidden = sorted(cache.glob(f"{stem}.*")) if cache.is_dir() else []
-        plan += [Mount("data", str(f), data="", mode=0o444) for f in hidden if f.is_file()]
+        compiled = sorted(cache.glob(f"{stem}.*")) if cache.is_dir() else []
+        plan += [Mount("data", str(f), data="", mode=0o444) for f in compiled if f.is_file()]
+        hidden |= {str(f) for f in compiled}
+    plan += _numba_caches(roots[1:], size, hidden)
     return _with_parents(plan)
+
+
+def _numba_caches(roots: Sequence[str], size: int, hidden: set[str]) -> list[Mount]:
+    """numba picks where a compiled function's cache lives when the module is imported, and
+    uses the folder beside the source only if it can write there: each ``__pycache__`` of the
+    kit's packages holding numba's index becomes a writable tmpfs with copies of its files
+    (those of stripped modules left out), so the grading server's imported kit keeps finding
+    its compiled code; each submission then gets its own fresh copy
+    (:mod:`grader.zygote`)."""
+    mounts = []
+    for folder in cache_folders(roots):
+        mounts.append(Mount("tmpfs", folder, size=size, mode=0o755))
+        mounts += [Mount("file", str(f), blob=f.read_bytes(), mode=0o644)
+                   for f in sorted(Path(folder).iterdir())
+                   if f.is_file() and str(f) not in hidden]
+    return mounts
 
 
 def _with_parents(plan: list[Mount]) -> list[Mount]:

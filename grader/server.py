@@ -123,9 +123,13 @@ def preload_modules(spec: LabSpec) -> list[str]:
 
 
 def _server_env(layer: str) -> dict[str, str]:
+    """The whole environment of the server and its submissions: nothing of the grader's (no
+    course secret, no tokens), and the grader's process id so that an administrator can tell
+    whose sandboxes these are."""
     env = {"LANG": "C.UTF-8", "KIT_GRADING": "1", "KIT_FAST": "1", "MPLBACKEND": "Agg",
            "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-           "NUMBA_NUM_THREADS": "1", "PYTHONDONTWRITEBYTECODE": "1"}
+           "NUMBA_NUM_THREADS": "1", "PYTHONDONTWRITEBYTECODE": "1",
+           "KIT_GRADER_PID": str(os.getpid())}
     if layer in ISOLATING:
         env["MPLCONFIGDIR"] = sandbox.MPL_DIR
     return env
@@ -283,7 +287,8 @@ class Session:
         self.ending: Ending | None = None
 
     def ask(self, op: str, payload: Any, wall: float) -> tuple[dict[str, Any], list[bytes]]:
-        """Send one question, return its answer; :class:`SessionLost` when none comes."""
+        """Send one question, return its answer; :class:`SessionLost` when none comes within
+        ``wall`` seconds (counted again from each cell's start while cells run)."""
         if self.ending is not None:
             raise SessionLost("ended")
         qid = secrets.token_hex(8)
@@ -295,6 +300,7 @@ class Session:
                 header, blobs = self.reader.read(deadline)
                 if header.get("op") == "started" and isinstance(header.get("cell"), int):
                     self.started_cell = header["cell"]
+                    deadline = time.monotonic() + wall
                     continue
                 if header.get("id") != qid:
                     raise SessionLost("unreadable", self.started_cell)

@@ -108,10 +108,10 @@ class Notebook:
     sha256: str
     cells: tuple[dict[str, Any], ...]
     """code cells: ``source``, ``position`` (1-based, among all cells), ``first_line`` and
-    ``mode`` — ``run`` for exercise cells and cells the student added, ``setup`` for the setup
-    cell (statement by statement), ``definitions`` for the lab's other cells (their imports,
-    functions and constants only), ``maybe`` in a notebook that lost the release's cell
-    metadata."""
+    ``mode`` — ``run`` for exercise cells and cells the student added (every cell of a
+    notebook without the release's cell metadata), ``setup`` for the setup cell (statement by
+    statement), ``definitions`` for the lab's other cells (their imports, functions and
+    constants only)."""
     student: str | None
     """who the notebook's ``kit.student`` metadata claims it is (only ever compared)."""
     lab: str | None
@@ -139,14 +139,13 @@ def _nbgrader(cell: dict[str, Any]) -> dict[str, Any] | None:
 
 
 def _mode(cell: dict[str, Any], source: str, released: bool) -> str:
-    """``run`` or ``definitions``; in a notebook without the release's cell metadata (another
-    tool's copy) ``maybe``: the grader decides by what the cell defines."""
+    """How the grader runs a cell. The lab's own cells are known by the release's cell
+    metadata; in a notebook without any (not made from the release), every cell is the
+    student's."""
     nbgrader = _nbgrader(cell)
     if CHECKER.search(source) and not (nbgrader or {}).get("solution"):
         return "setup"
-    if not released:
-        return "maybe"
-    if nbgrader is None or nbgrader.get("solution"):
+    if not released or nbgrader is None or nbgrader.get("solution"):
         return "run"  # an exercise cell, or a cell the student added
     return "definitions"
 

@@ -14,14 +14,16 @@ second is a file with its configuration (which modules to import, the stripped m
 the environment, the cache folders).
 
 Per request it forks a **keeper**, which enters new mount, PID, network, IPC and UTS
-namespaces and forks the submission's process — the first process of that PID namespace. The
-submission's process mounts its own ``/proc`` and private ``/tmp``, ``/dev/shm``, home and
-compiled-code caches (nothing of one submission is visible to the next), drops to a user id
-of its own with no capabilities, takes its resource limits (address space, CPU time, file
-size, processes, no core dumps), loads the seccomp filter (:mod:`grader.seccomp`) and only
-then starts answering the grader (:mod:`grader.runner`). The keeper stays outside, as root,
-waits for it and writes how it ended — exit code or signal, CPU time, peak memory — on a
-status pipe the grader alone reads; when the grader closes that pipe, the keeper kills it.
+namespaces and forks their first process; that one mounts the namespace's own ``/proc`` and
+private ``/tmp``, ``/dev/shm``, home and compiled-code caches (nothing of one submission is
+visible to the next), drops to a user id of its own with no capabilities, and forks the
+submission's process, which takes its resource limits (address space, CPU time, file size,
+processes, no core dumps), loads the seccomp filter (:mod:`grader.seccomp`) and only then
+starts answering the grader (:mod:`grader.runner`). The first process stays, deaf to the
+submission's signals as a namespace's init is, reaps orphans and reports how the submission's
+process ended (exit code or signal, CPU time, peak memory) to the keeper, which stays outside
+as root and writes it on a status pipe the grader alone reads; when the grader closes that
+pipe, the keeper kills the whole namespace.
 
 In the ``rlimits`` layer (no isolation) the same happens without namespaces or a user id of
 its own: resource limits only.
@@ -180,12 +182,10 @@ def _address_space() -> int:
 
 def _submission(config: dict[str, Any], request: dict[str, Any], channel: int, out: int,
                 err: int) -> None:
-    """The submission's process: isolate, limit, filter, answer. Never returns."""
+    """The submission's process: limits, the seccomp filter, then the answers. Never
+    returns."""
     try:
-        _die_with_parent()
         isolating = config["layer"] != "rlimits"
-        if isolating:
-            _isolate(config, request)
         os.chdir(config["home"] if isolating else request["home"])
         devnull = os.open("/dev/null", os.O_RDONLY)
         os.dup2(devnull, 0)
@@ -200,8 +200,7 @@ def _submission(config: dict[str, Any], request: dict[str, Any], channel: int, o
         _limit(request, isolating)
         from grader import runner, seccomp
 
-        request_filter = seccomp.install()
-        if not request_filter:
+        if not seccomp.install():
             os.write(2, b"grader: no seccomp filter for this architecture\n")
         sys.stdout = os.fdopen(1, "w", buffering=1, encoding="utf-8", errors="replace")
         sys.stderr = os.fdopen(2, "w", buffering=1, encoding="utf-8", errors="replace")
@@ -214,36 +213,75 @@ def _submission(config: dict[str, Any], request: dict[str, Any], channel: int, o
     os._exit(0)
 
 
+def _init(config: dict[str, Any], request: dict[str, Any], fds: list[int], report: int) -> None:
+    """The first process of the submission's PID namespace: makes its private mounts and
+    drops to its user, starts the submission's process, reaps orphans, and reports how the
+    submission's process ended — as pid 1 it is deaf to the submission's signals, and the
+    submission keeps the ordinary ones (a SIGSEGV it sends itself ends it). Never returns."""
+    channel, out, err = fds
+    try:
+        _die_with_parent()
+        if config["layer"] != "rlimits":
+            _isolate(config, request)
+        child = os.fork()
+        if child == 0:
+            os.close(report)
+            _die_with_parent()
+            _submission(config, request, channel, out, err)
+        for fd in (channel, out, err):
+            os.close(fd)
+        while True:
+            pid, code, usage = os.wait4(-1, 0)
+            if pid == child:
+                break
+        _report(report, {"signal": os.WTERMSIG(code) if os.WIFSIGNALED(code) else None,
+                         "exit": os.WEXITSTATUS(code) if os.WIFEXITED(code) else None,
+                         "cpu": usage.ru_utime + usage.ru_stime,
+                         "maxrss_kb": usage.ru_maxrss})
+    except BaseException:
+        _report(report, {"keeper_error": traceback.format_exc()[-2000:]})
+    os._exit(0)
+
+
 def _keeper(config: dict[str, Any], request: dict[str, Any], fds: list[int]) -> None:
-    """Between the template and the submission: new namespaces, the submission's process,
-    and its ending reported on the status pipe. Never returns."""
+    """Between the template and the submission: new namespaces, their first process, and the
+    submission's ending reported on the status pipe (the grader's alone). Never returns."""
     channel, status, out, err = fds
     try:
         _die_with_parent()
         if config["layer"] != "rlimits":
             _check(_libc.unshare(CLONE_NEWNS | CLONE_NEWPID | CLONE_NEWNET | CLONE_NEWIPC
                                  | CLONE_NEWUTS), "unshare")
+        report_in, report_out = os.pipe()
         child = os.fork()
         if child == 0:
             os.close(status)
-            _submission(config, request, channel, out, err)
-        for fd in (channel, out, err):
+            os.close(report_in)
+            _init(config, request, [channel, out, err], report_out)
+        for fd in (channel, out, err, report_out):
             os.close(fd)
         killed = _wait_or_kill(child, status)
         _, code, usage = os.wait4(child, 0)
-        ending = {"signal": os.WTERMSIG(code) if os.WIFSIGNALED(code) else None,
-                  "exit": os.WEXITSTATUS(code) if os.WIFEXITED(code) else None,
-                  "cpu": usage.ru_utime + usage.ru_stime, "maxrss_kb": usage.ru_maxrss,
-                  "killed_by_grader": killed}
+        with os.fdopen(report_in, "rb") as fh:
+            line = fh.readline()
+        try:
+            ending = json.loads(line) if line else None
+        except ValueError:
+            ending = None
+        if not isinstance(ending, dict):  # the namespace's first process itself was killed
+            ending = {"signal": os.WTERMSIG(code) if os.WIFSIGNALED(code) else None,
+                      "exit": os.WEXITSTATUS(code) if os.WIFEXITED(code) else None,
+                      "cpu": usage.ru_utime + usage.ru_stime, "maxrss_kb": usage.ru_maxrss}
+        ending["killed_by_grader"] = killed
         _report(status, ending)
     except BaseException:
         _report(status, {"keeper_error": traceback.format_exc()[-2000:]})
     os._exit(0)
 
 
-def _report(status: int, ending: dict[str, Any]) -> None:
+def _report(fd: int, ending: dict[str, Any]) -> None:
     try:
-        os.write(status, json.dumps(ending).encode() + b"\n")
+        os.write(fd, json.dumps(ending).encode() + b"\n")
     except OSError:
         pass  # the grader stopped listening
 
