@@ -598,11 +598,16 @@ def _read_amcl(s: Section, base: Any) -> Any:
         s.report.unuse(s.key("robot_model_type"), "not supported: the kit's AMCL has the "
                                                   "differential-drive motion model only")
         values["robot_model_type"] = base.robot_model_type
-    s.ignore_all(NO_EFFECT, _AMCL_NO_EFFECT)
-    s.ignore_all("no effect: the scenario starts AMCL at the robot's known start, as an "
-                 "/initialpose would", ["set_initial_pose", *[
-                     n for n in s.names() if n.startswith("initial_pose")]])
-    s.ignore_all("no effect: each episode seeds AMCL with its own seed", ("random_seed",))
+    # read into the parameters (they are AMCL's), but without effect in the simulator
+    for names, reason in ((_AMCL_NO_EFFECT, NO_EFFECT),
+                          (["set_initial_pose", *[n for n in s.names()
+                                                  if n.startswith("initial_pose")]],
+                           "no effect: the scenario starts AMCL at the robot's known start, "
+                           "as an /initialpose would"),
+                          (("random_seed",), "no effect: each episode seeds AMCL with its own "
+                                             "seed")):
+        for name in names:
+            s.report.unuse(s.key(name), reason)
     s.ignore_all("not an amcl parameter the kit knows")
     amcl = _build(AmclParameters, s.report, s.node, base, **values)
     nav2 = {f.name: getattr(d, f.name) for f in dataclasses.fields(AmclParameters)
@@ -784,11 +789,15 @@ def _report_other_nodes(nav2: Nav2File, report: ParameterReport) -> None:
         if not pending:
             continue
         pattern = entry.pattern
-        if any(t in ("*", "**") for t in pattern):
+        rest = pattern
+        while rest and rest[0] in ("*", "**"):
+            rest = rest[1:]                     # /**/velocity_smoother: a node in any namespace
+        if not rest or any(t in ("*", "**") for t in rest):
             reason = "no effect: set for many nodes by a wildcard; no node the kit mirrors " \
                      "reads it"
         else:
-            reason = _node_reason(pattern, mirrored, namespaces, nav2.namespace)
+            reason = _node_reason(rest, mirrored, namespaces,
+                                  nav2.namespace if rest == pattern else None)
         for key in pending:
             report.ignore(key, reason)
 

@@ -247,9 +247,11 @@ def inflation_cost(distance: ArrayLike, inscribed_radius: float,
 
 
 def _inflation_table(resolution: float, inflation_radius: float, inscribed_radius: float,
-                     cost_scaling_factor: float) -> tuple[int, CostArray]:
+                     cost_scaling_factor: float, shape: tuple[int, ...] = ()
+                     ) -> tuple[int, CostArray]:
     """``(R, table)``: the radius in cells, ``ceil(inflation_radius / resolution)`` as Nav2's
-    ``cellDistance``, and the cost of every squared cell distance ``0 … R²``."""
+    ``cellDistance`` — no more than the diagonal of a grid of ``shape``, beyond which no cell
+    lies — and the cost of every squared cell distance ``0 … R²``."""
     if not (math.isfinite(resolution) and resolution > 0):
         raise ValueError(f"resolution must be a positive number of metres per cell; "
                          f"got {resolution!r}")
@@ -259,6 +261,8 @@ def _inflation_table(resolution: float, inflation_radius: float, inscribed_radiu
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a non-negative number; got {value!r}")
     cells = int(max(0.0, math.ceil(inflation_radius / resolution)))
+    if shape:
+        cells = min(cells, math.ceil(math.hypot(*shape)) + 1)
     squared = np.arange(cells * cells + 1, dtype=np.float64)
     return cells, inflation_cost(np.sqrt(squared) * resolution, inscribed_radius,
                                  cost_scaling_factor)
@@ -295,7 +299,7 @@ def inflate_reference(costs: ArrayLike, resolution: float, *, inscribed_radius: 
     """
     c = _check_costs(costs)
     cells, table = _inflation_table(resolution, inflation_radius, inscribed_radius,
-                                    cost_scaling_factor)
+                                    cost_scaling_factor, c.shape)
     source = c == LETHAL_OBSTACLE
     if inflate_around_unknown:
         source |= c == NO_INFORMATION
@@ -400,7 +404,7 @@ def inflate(costs: ArrayLike, resolution: float, *, inscribed_radius: float,
     """
     c = _check_costs(costs)
     cells, table = _inflation_table(resolution, inflation_radius, inscribed_radius,
-                                    cost_scaling_factor)
+                                    cost_scaling_factor, c.shape)
     if cells == 0:
         return c.copy()
     return _inflate_compiled(np.ascontiguousarray(c), cells, table, bool(inflate_unknown),

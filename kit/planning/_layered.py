@@ -120,6 +120,9 @@ class KeepoutFilterParams:
 
 Layer = StaticLayerParams | ObstacleLayerParams | InflationLayerParams | KeepoutFilterParams
 
+MAX_CELLS = 100_000_000
+"""The most cells a costmap may have (10 km × 10 km at 1 m, 500 m × 500 m at 5 cm)."""
+
 DEFAULT_PADDING = float(np.float32(0.01))
 """Nav2 declares ``footprint_padding`` as the float ``0.01f``: 0.009999999776 m."""
 
@@ -244,7 +247,8 @@ def _sources(s: Section, layer: str) -> tuple[ObservationSource, ...]:
                                        f"non-negative number of metres; got {values[key]!r}")
                 values[key] = getattr(d, key)
         topic = src.get("topic", name)
-        src.ignore_all(NO_EFFECT, _SOURCE_PLUMBING)
+        for key in _SOURCE_PLUMBING:               # kept in the parameters, no effect
+            src.report.unuse(src.key(key), NO_EFFECT)
         src.ignore_all(_TWO_D, ("min_obstacle_height", "max_obstacle_height"))
         persistence = src.get("observation_persistence", 0.0, "0 s: only the newest scan")
         if persistence != 0.0:
@@ -500,6 +504,10 @@ class LayeredCostmap:
                 origin: tuple[float, float]) -> None:
         if shape[0] <= 0 or shape[1] <= 0:
             raise ValueError(f"a costmap needs at least one cell; got {shape}")
+        if shape[0] * shape[1] > MAX_CELLS:
+            raise ValueError(f"a costmap of {shape[0]} × {shape[1]} cells is more than the kit "
+                             f"holds ({MAX_CELLS:,}): check its size and resolution "
+                             f"({resolution} m)")
         self.shape, self.resolution, self.origin = shape, float(resolution), origin
         self.obstacles = {
             layer.name: ObstacleLayer(shape, resolution, origin, self.params.track_unknown_space,

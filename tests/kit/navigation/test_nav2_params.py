@@ -410,3 +410,24 @@ def test_random_files_load_with_every_key_accounted_or_fail_with_a_value_error(n
 def test_an_unknown_controller_asked_for_is_refused():
     with pytest.raises(ValueError, match="controller is 'rpp' or 'dwb'; got 'teb'"):
         load_nav2_params({"amcl": {"ros__parameters": {}}}, UIABOT, controller="teb")
+
+
+def test_nodes_named_under_a_wildcard_namespace_are_read_and_reported_by_their_name():
+    data = {"/**/amcl": {"ros__parameters": {"max_particles": 900}},
+            "/**/velocity_smoother": {"ros__parameters": {"smoothing_frequency": 20.0}},
+            "/**": {"ros__parameters": {"use_sim_time": True}}}
+    c = load_nav2_params(data, UIABOT)
+    assert c.amcl is not None and c.amcl.max_particles == 900
+    assert c.report.ignored["**/velocity_smoother:smoothing_frequency"].startswith(
+        "not used: the kit does not mirror velocity_smoother")
+    assert c.report.ignored["**:use_sim_time"].startswith("no effect")
+
+
+def test_a_costmap_too_large_to_hold_is_refused_before_it_is_made():
+    data = copy.deepcopy(yaml_load(HUMBLE))
+    data["local_costmap"]["local_costmap"]["ros__parameters"]["resolution"] = 1e-5
+    config = load_nav2_params(data, UIABOT)
+    grid = scenarios.load_world("office").occupancy_grid(0.05, layer="lidar")
+    with pytest.raises(ValueError, match=r"a costmap of 300000 × 300000 cells is more than "
+                                         r"the kit holds"):
+        Navigator(grid, UIABOT, config=config)
