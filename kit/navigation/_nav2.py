@@ -652,6 +652,9 @@ def _read_costmaps(global_: Section, local: Section, base: NavigationConfig,
                               f"{params.height:g} m)")
             changes["rolling_window"] = rolling
         if rolling:
+            for key in ("origin_x", "origin_y"):
+                s.report.unuse(s.key(key), "no effect: a rolling window is centred on the "
+                                           "robot")
             if s.has("global_frame"):
                 s.report.unuse(s.key("global_frame"), "no effect: the kit keeps the local "
                                                       "costmap in the map frame, as its poses")
