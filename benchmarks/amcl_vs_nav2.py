@@ -18,7 +18,7 @@ Scenes:
   scans are cast in the map (the first occupied cell along each beam, found by marching the
   raster in steps of an eighth of a cell and then intersecting that cell's square exactly);
   tracks stay in the building's mapped free space (the PGM's white, not the grey), 0.4 m
-  clear of walls;
+  clear of walls; ``--map YAML`` runs any other map_server map the same way;
 * ``office`` — the simulator's office rasterised at 5 cm (the lidar's layer: no glass) as the
   map; the scans are cast on the world's wall segments themselves (``sim.raycast``), so the
   map is an approximation of what the scanner sees, as a real map is.
@@ -160,17 +160,33 @@ def raster_caster(grid: msgs.OccupancyGrid) -> Callable[[FloatArray, FloatArray]
     return cast
 
 
-def olin_scene() -> Scene:
-    """The real Olin MAC map; tracks in its white (mapped free) space."""
-    grid = maps.read_map(OLIN)
+def map_scene(path: Path, name: str | None = None) -> Scene:
+    """A map_server map (YAML + image; the scene is named after its folder unless ``name``
+    is given) as both filters read it (map_server's thresholds, as
+    its YAML gives them); tracks only in its *mapped* free space — pixels free under Nav2's
+    default ``free_thresh`` 0.196, so that map_saver's grey (unknown, 205) is not walked on
+    even where the YAML's ``free_thresh: 0.25`` reads it as free (the Olin map, map8) —
+    0.4 m clear of walls and of unmapped space; beams cast in the raster."""
+    from ruamel.yaml import YAML
+
+    path = Path(path)
+    grid = maps.read_map(path)
     info = grid.info
-    with Image.open(OLIN.with_suffix(".pgm")) as image:
-        pixels = np.flipud(np.asarray(image))  # row 0 at the origin, as the grid
+    meta = YAML(typ="safe", pure=True).load(path.read_text(encoding="utf-8"))
+    with Image.open(path.parent / str(meta["image"])) as image:
+        pixels = np.flipud(np.asarray(image.convert("L"), dtype=np.float64))  # row 0 at origin
+    darkness = pixels / 255.0 if int(meta.get("negate", 0)) else (255.0 - pixels) / 255.0
+    mapped_free = darkness < 0.196
     occupied = grid.data.reshape(info.height, info.width) >= 65
-    mapped_free = pixels == 254
     clear = distance_transform_edt(~occupied) * info.resolution
     inside = distance_transform_edt(mapped_free) * info.resolution
-    return Scene("olin", grid, (clear > CLEARANCE) & (inside > CLEARANCE), raster_caster(grid))
+    return Scene(name or path.parent.name, grid, (clear > CLEARANCE) & (inside > CLEARANCE),
+                 raster_caster(grid))
+
+
+def olin_scene() -> Scene:
+    """The real Olin MAC map."""
+    return map_scene(OLIN, "olin")
 
 
 def office_scene() -> Scene:
@@ -493,6 +509,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--filters", default="nav2,kit-beam,kit-lf,kit-prob")
     parser.add_argument("--nav2-src", type=Path, default=None,
                         help="a checkout of amcl_python: adds nav2-beam, nav2-lf, nav2-prob")
+    parser.add_argument("--map", type=Path, action="append", default=[],
+                        help="a map_server YAML to run as one more scene (repeatable)")
     parser.add_argument("--json", type=Path, default=None,
                         help="also write every run's per-scan errors and CPU times here")
     args = parser.parse_args(argv)
@@ -510,8 +528,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"the build of Nav2's sources against the amcl package, beam model, 10 scans: "
               f"largest difference of the estimates {worst:.3g}")
     table: dict[str, dict[str, dict[str, list[list[float]]]]] = {}
-    for scene_name in args.scenes.split(","):
-        scene = SCENES[scene_name]()
+    scenes: list[Callable[[], Scene]] = [SCENES[name] for name in args.scenes.split(",") if name]
+    scenes += [lambda path=path: map_scene(path) for path in args.map]
+    for make_scene in scenes:
+        scene = make_scene()
+        scene_name = scene.name
         for n in args.particles:
             results = []
             for seed in args.seeds:
