@@ -40,7 +40,7 @@ class Yours:
         for number, ex in enumerate(self.spec.exercises, start=1):
             if ex.function == name:
                 return ex, number
-        raise ValueError(f"{name or fn!r} is not an exercise of {self.spec.name}; its "
+        raise ValueError(f"{name or repr(fn)} is not an exercise of {self.spec.name}; its "
                          f"exercises are {[ex.function for ex in self.spec.exercises]}")
 
     def missing(self, fn: Callable[..., Any]) -> str | None:
