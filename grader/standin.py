@@ -21,6 +21,7 @@ point of seeing it in the whole system.
 from __future__ import annotations
 
 import copy
+import traceback
 from collections.abc import Callable
 from typing import Any
 
@@ -50,7 +51,13 @@ class Yours:
         case = ex.public[0]
         try:
             fn(*copy.deepcopy(case.args), **copy.deepcopy(case.kwargs))
-        except NotImplementedError:
+        except NotImplementedError as exc:
+            names = [e.function for e in self.spec.exercises]
+            stub = [frame.f_code.co_name for frame, _ in traceback.walk_tb(exc.__traceback__)
+                    if frame.f_code.co_name in names]
+            if stub and stub[-1] != ex.function:     # an earlier exercise it calls
+                return (f"`{ex.function}` (exercise {number}) needs `{stub[-1]}` (exercise "
+                        f"{names.index(stub[-1]) + 1}), not done yet")
             return f"`{ex.function}` (exercise {number}) is not done yet"
         except Exception as exc:  # any failure of the student's code
             return (f"`{ex.function}` (exercise {number}) raises {type(exc).__name__} on its "
@@ -76,6 +83,10 @@ class Yours:
             return fn
         print(f"{why}: the kit's version stands in")
         return ex.reference
+
+    def reference(self, fn: Callable[..., Any]) -> Callable[..., Any]:
+        """The kit's version of ``fn``'s exercise, with the exercise's signature."""
+        return self._exercise(fn)[0].reference
 
     def done(self, *functions: Callable[..., Any]) -> bool:
         """Whether every one of ``functions`` runs (no notice printed)."""

@@ -51,3 +51,17 @@ def test_a_function_that_is_no_exercise_is_named():
 
     with pytest.raises(ValueError, match="helper is not an exercise of lab07"):
         Yours("lab07").pieces(helper)
+
+
+def test_a_function_whose_earlier_exercise_is_not_done_names_that_one(capsys):
+    def beam_angles(angle_min, angle_increment, n):
+        raise NotImplementedError()
+
+    def scan_to_points(ranges, angle_min, angle_increment, range_min, range_max, T):
+        return beam_angles(angle_min, angle_increment, len(ranges))
+
+    yours = Yours("lab06")
+    assert yours.function(scan_to_points) is yours.reference(scan_to_points)
+    assert capsys.readouterr().out == ("`scan_to_points` (exercise 3) needs `beam_angles` "
+                                       "(exercise 1), not done yet: the kit's version stands "
+                                       "in\n")
