@@ -433,9 +433,9 @@ should_resample = Exercise(
     diagnostics=(
         Diagnostic("resampling every step", _always,
                    "here N_eff = 1 / Σ w² is not below threshold · N, so keep the particles: "
-                   "resample only when N_eff < threshold · N — resampling every step (or "
-                   "with the comparison turned round, N_eff > threshold · N) throws particles "
-                   "away for nothing"),
+                   "resample only when N_eff < threshold · N — resampling every step throws "
+                   "particles away for nothing (and so does the comparison turned round, "
+                   "N_eff > threshold · N)"),
         Diagnostic("N_eff compared with the share itself", _ess_against_the_share,
                    "here N_eff = 1 / Σ w² is below threshold · N, so resample: threshold is "
                    "a share of the particles — compare N_eff with threshold · N, N the number "

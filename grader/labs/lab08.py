@@ -72,8 +72,8 @@ update_log_odds = Exercise(
     hidden=_update_hidden, rtol=1e-12, atol=1e-12,
     diagnostics=(
         Diagnostic("log-odds not clamped", _update_unclamped,
-                   "clamp the sum l + change to [l_min, l_max]: a cell seen as a wall a "
-                   "thousand times must still be able to turn free when a door opens"),
+                   "add, then clamp to [l_min, l_max] (the sum l + change): a cell seen as a "
+                   "wall a thousand times must still be able to turn free when a door opens"),
         Diagnostic("probabilities multiplied", _update_probabilities,
                    "in log-odds the Bayes update is a sum: l ← l + change, then clamp"),
     ),
