@@ -1394,8 +1394,13 @@ def _checked(lab, fn, name, capsys):
 
 
 def test_should_resample_turned_round_is_told_the_comparison_not_to_multiply_by_n(capsys):
-    out, _ = _checked("lab07", lambda w, t: bool(1 / np.sum(np.square(w)) > t * len(w)),
-                      "should_resample", capsys)
+    """'>' for '<' answers every case wrongly, so each hint that fits its answer is given (a
+    bool tells one bit): each must name the turned comparison. It costs every student."""
+    def turned(w, t):
+        return bool(1 / np.sum(np.square(w)) > t * len(w))
+
+    assert not _students_spared(load_lab("lab07").exercise("should_resample"), turned)
+    out, _ = _checked("lab07", turned, "should_resample", capsys)
     hints = [line for line in out.splitlines() if line.startswith("  this is what")]
     assert "✗ lab07.should_resample" in out and len(hints) == 3, out
     for line in hints:
