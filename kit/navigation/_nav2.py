@@ -304,8 +304,21 @@ def _read_controller_server(s: Section, base: NavigationConfig, robot: RobotDesc
     _kept(s.report, s.key(""), s, NavigatorParameters(**{**dataclasses.asdict(nav), **out}),
           {"min_x_velocity_threshold": 0.0001, "min_theta_velocity_threshold": 0.0001,
            "failure_tolerance": 0.0})
+    out.update(_read_progress_checker(s, nav))
+    out.update(_read_goal_checker(s, nav))
+    controller, rpp, dwb = _read_follow_path(s, base, robot, requested, local_extent,
+                                             out["controller_frequency"])
+    s.ignore_all(NO_EFFECT, ("use_sim_time", "odom_topic", "speed_limit_topic",
+                             "costmap_update_timeout", "use_realtime_priority",
+                             "enable_stamped_cmd_vel", "publish_zero_velocity",
+                             "bond_heartbeat_period", "introspection_mode",
+                             "service_introspection_mode", "odom_duration"))
+    return out, controller, rpp, dwb
 
-    # the progress checker (Humble: progress_checker_plugin; Jazzy: ..._plugins)
+
+def _read_progress_checker(s: Section, nav: NavigatorParameters) -> dict[str, Any]:
+    """Humble's ``progress_checker_plugin`` or Jazzy's ``progress_checker_plugins``."""
+    out: dict[str, Any] = {}
     if s.has("progress_checker_plugins"):
         ids = s.get_list("progress_checker_plugins", ["progress_checker"])
     else:
@@ -328,8 +341,12 @@ def _read_controller_server(s: Section, base: NavigationConfig, robot: RobotDesc
         pc.report.unuse(pc.key("plugin"), "")
         pc.ignore_all(f"not supported: the kit's progress checkers are Nav2's "
                       f"SimpleProgressChecker and PoseProgressChecker, not {kind}")
+    return out
 
-    # the goal checker: the default tree names none, Nav2 then needs exactly one
+
+def _read_goal_checker(s: Section, nav: NavigatorParameters) -> dict[str, Any]:
+    """The goal checker: the default tree names none, Nav2 then needs exactly one."""
+    out: dict[str, Any] = {}
     ids = s.get_list("goal_checker_plugins", ["goal_checker"]) or ["goal_checker"]
     if s.has("goal_checker_plugin"):           # Galactic's singular name
         s.ignore("goal_checker_plugin", "not used: Nav2 Humble and later read "
@@ -352,8 +369,13 @@ def _read_controller_server(s: Section, base: NavigationConfig, robot: RobotDesc
         gc.report.unuse(gc.key("plugin"), "")
         gc.ignore_all(f"not supported: the kit's goal checkers are Nav2's SimpleGoalChecker "
                       f"and StoppedGoalChecker, not {kind}")
+    return out
 
-    # the controller: the default tree calls FollowPath
+
+def _read_follow_path(s: Section, base: NavigationConfig, robot: RobotDescription,
+                      requested: str | None, local_extent: float, frequency: float
+                      ) -> tuple[str, RppParameters, DwbParameters]:
+    """The controller: the default tree calls FollowPath."""
     ids = s.get_list("controller_plugins", ["FollowPath"]) or ["FollowPath"]
     chosen = "FollowPath" if "FollowPath" in ids else ids[0]
     if chosen != "FollowPath":
@@ -365,7 +387,6 @@ def _read_controller_server(s: Section, base: NavigationConfig, robot: RobotDesc
     fp = s.sub(chosen)
     plugin = fp.get("plugin", "dwb_core::DWBLocalPlanner")
     controller_kind = _CONTROLLER_TYPES.get(_type_name(plugin))
-    frequency = out["controller_frequency"]
     rpp = dataclasses.replace(base.rpp, controller_frequency=frequency)
     dwb = dataclasses.replace(base.dwb, controller_frequency=frequency)
     if controller_kind is None:
@@ -377,22 +398,15 @@ def _read_controller_server(s: Section, base: NavigationConfig, robot: RobotDesc
                       f"own parameters for the {robot.name}")
         fp.report.note(f"{s.node}.{chosen}: {plugin} is not supported: the kit's "
                        f"{'DWB' if fallback == 'dwb' else 'Regulated Pure Pursuit'} drives")
-        controller = fallback
+        return fallback, rpp, dwb
+    if requested is not None and requested != controller_kind:
+        s.report.errors.append(f"the controller asked for is {requested!r}, but the file's "
+                               f"{chosen} is {plugin}: drop one of the two")
+    if controller_kind == "rpp":
+        rpp = _read_rpp(fp, rpp, frequency, robot, local_extent)
     else:
-        if requested is not None and requested != controller_kind:
-            s.report.errors.append(f"the controller asked for is {requested!r}, but the file's "
-                                   f"{chosen} is {plugin}: drop one of the two")
-        controller = controller_kind
-        if controller_kind == "rpp":
-            rpp = _read_rpp(fp, rpp, frequency, robot, local_extent)
-        else:
-            dwb = _read_dwb(fp, dwb, frequency)
-    s.ignore_all(NO_EFFECT, ("use_sim_time", "odom_topic", "speed_limit_topic",
-                             "costmap_update_timeout", "use_realtime_priority",
-                             "enable_stamped_cmd_vel", "publish_zero_velocity",
-                             "bond_heartbeat_period", "introspection_mode",
-                             "service_introspection_mode", "odom_duration"))
-    return out, controller, rpp, dwb
+        dwb = _read_dwb(fp, dwb, frequency)
+    return controller_kind, rpp, dwb
 
 
 # ---------------------------------------------------------------------- the planner
