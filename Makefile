@@ -2,6 +2,7 @@
 #   make lab    copy labs/ into work/ (never overwriting your files) and start JupyterLab there
 #   make reset LAB=01   a fresh copy of one lab in work/, your old file kept beside it
 #   make demo   the whole see-think-act loop: SLAM map of the office, then navigation on it among people
+#               (PARAMS=FILE: a Nav2 parameter file for the navigation; default sim/params/uiabot_nav2_params.yaml)
 #   make test   ruff, mypy, pytest (with the labs executed) and nbval on solutions/
 # Instructors: make solutions re-executes solutions/ (KIT_FAST=1) and regenerates labs/.
 
@@ -32,7 +33,7 @@ reset: $(STAMP)
 	$(BIN)/python -m grader.workdir reset $(LAB)
 
 demo: $(STAMP)
-	$(BIN)/python -m sim demo --out out
+	$(BIN)/python -m sim demo --out out $(if $(PARAMS),--params $(PARAMS),)
 
 lint: $(STAMP)
 	$(BIN)/ruff check kit sim grader hardware tests benchmarks

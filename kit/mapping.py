@@ -26,6 +26,7 @@ in ``nav_msgs/OccupancyGrid``: cell ``(row, col)`` covers
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -214,6 +215,11 @@ class OccupancyGridMap:
         first scan when ``None``.
     model
         The inverse sensor model.
+    update
+        A log-odds update written elsewhere (a lab's ``update_log_odds(l, change, l_min,
+        l_max)``) used in place of the kit's beam-by-beam one: each :meth:`insert_points`
+        then adds up its beams' changes per cell and applies ``update`` once to the cells
+        they touched (the textbook's per-scan update; the kit clamps after every beam).
 
     >>> m = OccupancyGridMap(resolution=0.1)
     >>> scan = msgs.LaserScan(angle_min=0.0, angle_increment=0.1, range_min=0.1,
@@ -227,11 +233,14 @@ class OccupancyGridMap:
     """Cells added beyond what a scan needs when the grid grows (fewer reallocations)."""
 
     def __init__(self, resolution: float = 0.05, origin: ArrayLike | None = None,
-                 model: InverseSensorModel | None = None) -> None:
+                 model: InverseSensorModel | None = None,
+                 update: Callable[[FloatArray, FloatArray, float, float], ArrayLike] | None = None
+                 ) -> None:
         if not resolution > 0:
             raise ValueError(f"resolution must be positive [m/cell]; got {resolution}")
         self.resolution = float(np.float32(resolution))  # as OccupancyGrid stores it
         self.model = model or InverseSensorModel()
+        self.update = update
         self.log_odds = np.zeros((0, 0))
         self.origin = np.zeros(2) if origin is None else np.asarray(origin, dtype=np.float64)
         if self.origin.shape != (2,) or not np.all(np.isfinite(self.origin)):
@@ -289,8 +298,20 @@ class OccupancyGridMap:
         cells = self._ensure(self.cells(np.vstack([origin, ends])))
         m = self.model
         run = integrate_beams if compiled else integrate_beams_reference
-        run(self.log_odds, (int(cells[0, 0]), int(cells[0, 1])), cells[1:], hit,
-            m.l_free, m.l_occupied, m.l_min, m.l_max)
+        start = (int(cells[0, 0]), int(cells[0, 1]))
+        if self.update is None:
+            run(self.log_odds, start, cells[1:], hit, m.l_free, m.l_occupied, m.l_min, m.l_max)
+            return
+        change, touched = np.zeros_like(self.log_odds), np.zeros_like(self.log_odds)
+        run(change, start, cells[1:], hit, m.l_free, m.l_occupied, -np.inf, np.inf)
+        run(touched, start, cells[1:], hit, 1.0, 1.0, -np.inf, np.inf)
+        rows, cols = np.nonzero(touched)
+        new = np.asarray(self.update(self.log_odds[rows, cols], change[rows, cols], m.l_min,
+                                     m.l_max), dtype=np.float64)
+        if new.shape != rows.shape:
+            raise ValueError(f"update must return one log-odds per cell, shape {rows.shape}; "
+                             f"got {new.shape}")
+        self.log_odds[rows, cols] = new
 
     def insert_scan(self, scan: msgs.LaserScan, pose: ArrayLike, compiled: bool = True
                     ) -> None:

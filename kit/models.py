@@ -35,6 +35,7 @@ smaller, so driving backwards (δrot1 ≈ π) is as certain as driving forwards.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -131,8 +132,14 @@ def _rotation_noise(rot: FloatArray | float) -> FloatArray:
         np.asarray(rot) - np.pi)))
 
 
+Control = Callable[[ArrayLike, ArrayLike], ArrayLike]
+"""``control(odom_previous, odom_current) -> (δrot1, δtrans, δrot2)``, as
+:func:`odometry_control`."""
+
+
 def sample_odometry_motion(poses: ArrayLike, odom_previous: ArrayLike, odom_current: ArrayLike,
-                           alphas: ArrayLike, rng: np.random.Generator) -> FloatArray:
+                           alphas: ArrayLike, rng: np.random.Generator,
+                           control: Control | None = None) -> FloatArray:
     """Move every particle by the odometry's motion, with sampled noise
     (*Probabilistic Robotics*, table 5.6, as Nav2's AMCL applies it).
 
@@ -156,6 +163,9 @@ def sample_odometry_motion(poses: ArrayLike, odom_previous: ArrayLike, odom_curr
         AMCL's ``alpha1`` … ``alpha4``.
     rng : numpy.random.Generator
         The source of the noise.
+    control : callable, optional
+        Computes the control in place of :func:`odometry_control` (same arguments, same
+        result).
 
     Returns
     -------
@@ -169,7 +179,8 @@ def sample_odometry_motion(poses: ArrayLike, odom_previous: ArrayLike, odom_curr
     """
     p = geometry.check_pose(poses, "poses").reshape(-1, 3)
     a = _check_alphas(alphas)
-    rot1, trans, rot2 = odometry_control(odom_previous, odom_current)
+    rot1, trans, rot2 = _check_control((control or odometry_control)(odom_previous,
+                                                                     odom_current))
     n1, n2 = _rotation_noise(rot1), _rotation_noise(rot2)
     n = len(p)
     rot1_hat = rot1 - rng.normal(0.0, math.sqrt(a[0] * n1**2 + a[1] * trans**2), n)

@@ -1,10 +1,11 @@
-"""``python -m sim demo [--out DIR] [--seed N]``, ``python -m sim bench [--quick]`` and
-``python -m sim navigate --world office|aisle --robot uiabot|igv|eddie|FILE --episodes N
---seed S [--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass]
-[--keepout|--no-keepout] --out FILE.csv``. ``--robot`` also takes a robot's own description:
-a ``.urdf``, ``.urdf.xacro`` (with ``--xacro-arg NAME:=VALUE`` and ``--package-path
-PKG=DIR``), a kit ``.toml`` or a bag that recorded ``/robot_description``;
-``--robot-params FILE`` gives what its URDF does not hold (see :func:`kit.robots.load`)."""
+"""``python -m sim demo [--out DIR] [--seed N] [--params FILE]``, ``python -m sim bench
+[--quick]`` and ``python -m sim navigate --world office|aisle --robot uiabot|igv|eddie|FILE
+--episodes N --seed S [--localization truth|amcl|slam] [--controller dwb|rpp] [--route
+tour|glass] [--keepout|--no-keepout] [--params nav2_params.yaml [--namespace NS]] --out
+FILE.csv``. ``--robot`` also takes a robot's own description: a ``.urdf``, ``.urdf.xacro``
+(with ``--xacro-arg NAME:=VALUE`` and ``--package-path PKG=DIR``), a kit ``.toml`` or a bag
+that recorded ``/robot_description``; ``--robot-params FILE`` gives what its URDF does not
+hold (see :func:`kit.robots.load`)."""
 
 from __future__ import annotations
 
@@ -25,6 +26,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                           "then navigates it with AMCL among people; PNG, HTML, MCAP bag")
     demo.add_argument("--out", default="out", help="folder for the PNG (out)")
     demo.add_argument("--seed", type=int, default=7)
+    demo.add_argument("--params", default=None,
+                      help="a Nav2 parameter file for the navigation (default: the kit's, "
+                      "sim/params/uiabot_nav2_params.yaml)")
     bench = sub.add_parser("bench", help="real-time factors and raycaster throughput")
     bench.add_argument("--quick", action="store_true", help="one short run per figure")
     nav = sub.add_parser("navigate", help="seeded navigation episodes; one CSV row per goal")
@@ -43,7 +47,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     nav.add_argument("--episodes", type=int, default=20)
     nav.add_argument("--seed", type=int, default=0, help="episode i runs with seed S + i")
     nav.add_argument("--localization", choices=("truth", "amcl", "slam"), default="truth")
-    nav.add_argument("--controller", choices=("rpp", "dwb"), default="rpp")
+    nav.add_argument("--controller", choices=("rpp", "dwb"), default=None,
+                     help="default: the parameter file's FollowPath, else rpp")
     nav.add_argument("--route", choices=("tour", "glass", "waypoints"), default=None,
                      help="default: tour, but the IGV's in the aisle is waypoints (it cannot "
                      "turn round in 1.5 m)")
@@ -51,6 +56,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                      help="how many people walk (default: the route's)")
     nav.add_argument("--keepout", action=argparse.BooleanOptionalAction, default=None,
                      help="the glass as a keep-out mask (default: on, but for the glass route)")
+    nav.add_argument("--params", default=None, metavar="FILE",
+                     help="a Nav2 parameter file (nav2_params.yaml, a vendor's): the "
+                     "controller, planner, costmaps, checkers, recoveries and AMCL as it "
+                     "says; what became of each key is printed first")
+    nav.add_argument("--namespace", default=None,
+                     help="the robot's namespace, when the parameter file has several")
     nav.add_argument("--out", required=True, help="CSV file to write")
     args = parser.parse_args(argv)
     if args.command == "navigate":
@@ -59,9 +70,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         from sim import bench as bench_module
 
         return bench_module.main(args.quick)
-    from sim import navdemo
+    from sim import navdemo, scenarios
 
-    return navdemo.main(Path(args.out), args.seed)
+    path = args.params if args.params is not None else navdemo.PARAMS
+    try:
+        config = scenarios.load_params(path, "uiabot")
+    except ValueError as e:
+        print(f"python -m sim demo: {e}", file=sys.stderr)
+        return 2
+    assert config.report is not None
+    lines = config.report.lines()
+    print(lines[0] if len(lines) == 1 else "\n".join(lines))
+    return navdemo.main(Path(args.out), args.seed, config)
 
 
 def _navigate(args: argparse.Namespace) -> int:
@@ -75,17 +95,31 @@ def _navigate(args: argparse.Namespace) -> int:
     except ValueError as e:
         print(f"python -m sim navigate: {e}", file=sys.stderr)
         return 2
+    config = None
+    if args.namespace is not None and args.params is None:
+        print("python -m sim navigate: --namespace needs --params", file=sys.stderr)
+        return 2
+    if args.params is not None:
+        try:
+            config = scenarios.load_params(args.params, robot, args.controller,
+                                           args.namespace)
+        except ValueError as e:
+            print(f"python -m sim navigate: {e}", file=sys.stderr)
+            return 2
+        assert config.report is not None
+        print("\n".join(config.report.lines()))
+    controller = config.controller if config is not None else (args.controller or "rpp")
     try:
         rows = scenarios.navigate(args.world, robot, args.episodes, args.seed,
-                                  args.localization, args.controller, args.route, args.keepout,
-                                  people=args.people)
+                                  args.localization, controller, args.route, args.keepout,
+                                  people=args.people, config=config)
     except ValueError as e:
         print(f"python -m sim navigate: {e}", file=sys.stderr)
         return 2
     out = scenarios.write_table(rows, args.out)
     figures = scenarios.summary(rows, robot.cruise_velocity)
     route = args.route or scenarios.default_route(args.world, robot)
-    print(f"{args.world}/{route}, {robot.name}, {args.localization}, {args.controller}: "
+    print(f"{args.world}/{route}, {robot.name}, {args.localization}, {controller}: "
           f"{figures['reached']:.0%} of {figures['goals']} goals reached; "
           f"{figures['episodes_without_person_collision']:.0%} of {figures['episodes']} "
           f"episodes without touching a person; {figures['collisions_static']:.0f} contacts "

@@ -12,6 +12,9 @@
    the office tour's goals; the glass of the meeting room, which the lidar (and so the map)
    does not see, is kept out with a keep-out mask.
 
+The navigation is configured by a Nav2 parameter file, :data:`PARAMS` (the kit's own for the
+Uiabot, in Nav2's format: a course edits that one file, or passes its own with ``--params``).
+
 It prints the metrics, and writes ``demo_map.yaml``/``.pgm`` (the SLAM map), ``demo_loop.png``
 (the map, the true and estimated paths, the plans, the people, AMCL's particle cloud),
 ``demo_loop.html`` (an animation) and ``demo_loop/``, an MCAP ROS 2 bag with ``/map``,
@@ -30,12 +33,18 @@ import numpy as np
 
 from kit import msgs
 from kit.bag import BagWriter
+from kit.navigation import NavigationConfig
 from kit.slam.offline import read_bag_recording, run_bag
 from sim import demo, scenarios
 from sim.runner import Node, Published, Runner, WheelOdometryNode
 from sim.simulation import Simulation
 
-__all__ = ["main", "navigate_on_map"]
+__all__ = ["PARAMS", "main", "navigate_on_map"]
+
+PARAMS = Path(__file__).resolve().parent / "params" / "uiabot_nav2_params.yaml"
+"""The demo's navigation parameters: the kit's configuration for the Uiabot, in Nav2's format
+(the same as the kit's defaults, :meth:`kit.navigation.NavigationConfig.for_robot`, and the
+scenarios' AMCL)."""
 
 TOPICS = ("/scan", "/odom", "/tf", "/plan", "/cmd_vel")
 GOALS = ((16.45, 9.0, math.pi / 2), (4.45, 9.0, math.pi / 2), (1.5, 6.0, math.pi))
@@ -66,9 +75,10 @@ class Snapshots(Node):
         return ()
 
 
-def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None
-                    ) -> dict[str, Any]:
-    """The office tour on ``grid`` with AMCL among people; rows, frames and counts."""
+def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None,
+                    config: NavigationConfig | None = None) -> dict[str, Any]:
+    """The office tour on ``grid`` with AMCL among people; rows, frames and counts.
+    ``config``: the navigator's (and AMCL's) configuration (default: the kit's)."""
     route = scenarios.Route("office", (1.0, 6.0, 0.0), GOALS, 5,
                             "the mapped offices and home, among five people")
     world = scenarios.load_world("office")
@@ -78,8 +88,8 @@ def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None
     sim = Simulation(world=world, robot="uiabot", seed=seed, people=route.people,
                      start=route.start)
     d = sim.description()
-    loc = scenarios.AmclLocalization(grid, seed)
-    nav = scenarios.Navigator(grid, d, keepout=setup.keepout)
+    loc = scenarios.AmclLocalization(grid, seed, config.amcl if config is not None else None)
+    nav = scenarios.Navigator(grid, d, keepout=setup.keepout, config=config)
     limits = [30.0 + 4.0 * x / d.cruise_velocity for x in setup.shortest]
     node = scenarios.NavigationNode(nav, loc, route.goals, limits, 0, setup.shortest)
     bag = BagWriter(bag_path) if bag_path is not None else None
@@ -153,7 +163,7 @@ def _animation(grid: msgs.OccupancyGrid, result: dict[str, Any], html: Path) -> 
     plt.close(fig)
 
 
-def main(out_dir: Path, seed: int = 7) -> int:
+def main(out_dir: Path, seed: int = 7, config: NavigationConfig | None = None) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -174,7 +184,7 @@ def main(out_dir: Path, seed: int = 7) -> int:
     nav_bag = out_dir / "demo_loop"
     if nav_bag.exists():
         shutil.rmtree(nav_bag)
-    result = navigate_on_map(grid, seed, nav_bag)
+    result = navigate_on_map(grid, seed, nav_bag, config)
     rows = result["rows"]
     figures = scenarios.summary(rows, 0.5)
     print(f"2. navigated on the SLAM map with AMCL among 5 people: "

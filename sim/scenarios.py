@@ -22,8 +22,9 @@ navigates on it, its ``map → odom`` with the odometry).
 
 ``python -m sim navigate --world office|aisle --robot uiabot|igv --episodes N --seed S
 [--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass|waypoints]
-[--people N] [--keepout]
---out FILE.csv``
+[--people N] [--keepout] [--params nav2_params.yaml [--namespace NS]]
+--out FILE.csv``: ``--params`` configures the navigator (and AMCL) from a Nav2 parameter file
+(:func:`load_params`).
 """
 
 from __future__ import annotations
@@ -48,9 +49,11 @@ from kit.navigation import (
     RUNNING,
     SUCCEEDED,
     Controller,
+    NavigationConfig,
     NavigationCostmap,
     Navigator,
     arc_poses,
+    load_nav2_params,
 )
 from kit.planning import (
     FREE_SPACE,
@@ -72,10 +75,11 @@ from sim.runner import Node, Published, Runner, WheelOdometryNode, odometry_pose
 from sim.simulation import Simulation
 from sim.world import World, load_world
 
-__all__ = ["COLUMNS", "DEFAULT_ROUTES", "LOCALIZATIONS", "ROUTES", "AmclLocalization",
-           "GoalResult", "NavigationNode", "Route", "SlamLocalization", "TruthLocalization",
-           "default_route", "episode", "localization_source", "navigate", "on_canvas",
-           "run_episode", "unknown_canvas", "write_table"]
+__all__ = ["AMCL", "COLUMNS", "DEFAULT_ROUTES", "LOCALIZATIONS", "ROUTES",
+           "AmclLocalization", "GoalResult", "NavigationNode", "Route", "SlamLocalization",
+           "TruthLocalization", "default_route", "episode", "load_params",
+           "localization_source", "navigate", "on_canvas", "run_episode", "unknown_canvas",
+           "write_table"]
 
 FloatArray = NDArray[np.float64]
 HALF_PI = math.pi / 2
@@ -176,6 +180,14 @@ class TruthLocalization:
         return self._sim.ground_truth(self._robot).pose
 
 
+AMCL = AmclParameters(base_frame_id="base_link", laser_max_range=12.0, max_particles=2000,
+                      min_particles=500, laser_model_type="likelihood_field_prob",
+                      sigma_hit=0.3, update_min_d=0.1, update_min_a=0.2)
+"""The scenarios' AMCL: Nav2's defaults but for the simulated lidar's 12 m range, the
+likelihood field with the probabilistic beams' normalisation, σ 0.3 m and an update every
+0.1 m (a parameter file's ``amcl`` sets what it names; the rest stays this)."""
+
+
 class AmclLocalization:
     """The kit's AMCL on ``grid`` from the known start, with the wheel odometry."""
 
@@ -184,10 +196,7 @@ class AmclLocalization:
     def __init__(self, grid: msgs.OccupancyGrid, seed: int,
                  params: AmclParameters | None = None) -> None:
         self.grid = grid
-        self.params = params or AmclParameters(
-            base_frame_id="base_link", laser_max_range=12.0, max_particles=2000,
-            min_particles=500, laser_model_type="likelihood_field_prob", sigma_hit=0.3,
-            update_min_d=0.1, update_min_a=0.2)
+        self.params = params or AMCL
         self.seed = seed
 
     def start(self, sim: Simulation, robot: int, odom_pose: FloatArray) -> None:
@@ -362,6 +371,7 @@ class NavigationNode(Node):
                  time_limits: Sequence[float], episode: int = 0,
                  shortest: Sequence[float] = ()) -> None:
         self.navigator = navigator
+        self.rate = float(navigator.params.controller_frequency)
         self.localization = localization
         self.goals = [geometry.check_pose(g, "goal") for g in goals]
         self.time_limits = list(time_limits)
@@ -560,12 +570,14 @@ def shortest_lengths(world: World, robot: str | RobotDescription, route: Route) 
     return out
 
 
-def localization_source(s: EpisodeSetup, localization: str, seed: int) -> Any:
-    """A fresh localization source by name (one of :data:`LOCALIZATIONS`)."""
+def localization_source(s: EpisodeSetup, localization: str, seed: int,
+                        amcl: AmclParameters | None = None) -> Any:
+    """A fresh localization source by name (one of :data:`LOCALIZATIONS`); ``amcl``: AMCL's
+    parameters (default :data:`AMCL`)."""
     if localization == "truth":
         return TruthLocalization()
     if localization == "amcl":
-        return AmclLocalization(s.nav_grid, seed)
+        return AmclLocalization(s.nav_grid, seed, amcl)
     if localization == "slam":
         return SlamLocalization(s.nav_grid)
     raise ValueError(f"localization is one of {', '.join(LOCALIZATIONS)}; got "
@@ -573,20 +585,23 @@ def localization_source(s: EpisodeSetup, localization: str, seed: int) -> Any:
 
 
 def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
-                controller: str | Controller = "rpp",
+                controller: str | Controller = "rpp", config: NavigationConfig | None = None,
                 progress_bar: str | None = None) -> NavigationNode:
     """One seeded episode with a localization source; the node (its ``results``, its
     ``pose_errors``, its ``trail``). With SLAM the navigator starts from unknown space.
     ``controller``: ``"rpp"``, ``"dwb"`` or a controller object (e.g. the kit's
-    controllers with a student's functions in them, Lab 10); ``progress_bar`` names a bar
-    over the episode's simulated time (:func:`kit.progress.progress`)."""
+    controllers with a student's functions in them, Lab 10); ``config``: the navigator's
+    configuration (:func:`load_params`), else the kit's with ``controller``;
+    ``progress_bar`` names a bar over the episode's simulated time
+    (:func:`kit.progress.progress`)."""
     route = s.route
     sim = Simulation(world=s.world, robot=s.robot, seed=seed, people=route.people,
                      start=route.start)
     d = sim.description()
     grid = unknown_canvas(s.nav_grid) if isinstance(localization, SlamLocalization) \
         else s.nav_grid
-    nav = Navigator(grid, d, controller=controller, keepout=s.keepout)
+    nav = Navigator(grid, d, controller=controller if config is None else None,
+                    keepout=s.keepout, config=config)
     cruise = d.cruise_velocity
     limits = [30.0 + 4.0 * (x if math.isfinite(x) else 30.0) / cruise for x in s.shortest]
     node = NavigationNode(nav, localization, route.goals, limits, index, s.shortest)
@@ -596,20 +611,36 @@ def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
 
 
 def episode(s: EpisodeSetup, index: int, seed: int, localization: str = "truth",
-            controller: str | Controller = "rpp",
+            controller: str | Controller = "rpp", config: NavigationConfig | None = None,
             progress_bar: str | None = None) -> list[GoalResult]:
     """One seeded episode; the route's rows."""
-    return run_episode(s, index, seed, localization_source(s, localization, seed),
-                       controller, progress_bar).results
+    amcl = config.amcl if config is not None else None
+    return run_episode(s, index, seed, localization_source(s, localization, seed, amcl),
+                       controller, config, progress_bar).results
+
+
+def load_params(path: str | Path, robot: str | RobotDescription,
+                controller: str | None = None,
+                namespace: str | None = None) -> NavigationConfig:
+    """A Nav2 parameter file as the navigator's configuration for ``robot`` (a name or a
+    description: :func:`kit.navigation.load_nav2_params`), AMCL's unset parameters the
+    scenarios' (:data:`AMCL`); its ``report`` says what became of each key."""
+    from kit.robots import load as load_robot
+
+    description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
+    return load_nav2_params(path, description, controller=controller,
+                            namespace=namespace, amcl=AMCL)
 
 
 def navigate(world: str = "office", robot: str | RobotDescription = "uiabot", episodes: int = 20,
              seed: int = 0,
              localization: str = "truth", controller: str = "rpp", route: str | None = None,
              keepout: bool | None = None, bar: bool = True,
-             people: int | None = None) -> list[GoalResult]:
+             people: int | None = None, config: NavigationConfig | None = None
+             ) -> list[GoalResult]:
     """Seeded episodes ``seed, seed + 1, …``; every goal's row. ``people``: how many walk
-    (default: the route's)."""
+    (default: the route's); ``config``: the navigator's configuration (from a Nav2 parameter
+    file: :func:`load_params`; its controller then drives)."""
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1; got {episodes}")
     if people is not None and (isinstance(people, bool) or not isinstance(people, int)
@@ -626,7 +657,7 @@ def navigate(world: str = "office", robot: str | RobotDescription = "uiabot", ep
     rows: list[GoalResult] = []
     indices = range(episodes)
     for i in progress(indices, desc=f"{world} episodes", total=episodes) if bar else indices:
-        rows.extend(episode(s, i, seed + i, localization, controller))
+        rows.extend(episode(s, i, seed + i, localization, controller, config))
     return rows
 
 

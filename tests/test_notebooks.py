@@ -380,3 +380,133 @@ def test_lab09_a_degraded_astar_changes_your_routes_and_their_figure(monkeypatch
     assert stream_text(wrong["09-26d"]) != stream_text(stored)
     assert stream_text(wrong["09-26b"]) == stream_text(right["09-26b"])
     assert _png(wrong["09-26d"]) != _png(right["09-26d"])
+
+
+# ------------------------------------------------------------------ Labs 06–08: text and output
+
+def _cell(path: Path, cell_id: str):
+    nb = nbformat.read(path, as_version=4)
+    return next(c for c in nb.cells if c.get("id") == cell_id)
+
+
+def _printed(cell) -> str:
+    return "".join(o.get("text", "") for o in cell.get("outputs", [])
+                   if o.output_type == "stream" and o.get("name") == "stdout")
+
+
+SOLUTION = {lab: next(p for p in SOLUTION_NOTEBOOKS if p.name.startswith(lab))
+            for lab in ("06", "07", "08")}
+
+
+def test_lab06_states_the_kinects_field_of_view_and_edge_stretch_that_it_prints():
+    """640 columns at f_x = 525 span 2·atan(320/525); at column 0 the ray is hypot(·)/z longer
+    than z (kit.perception.depth_to_range)."""
+    import math
+
+    from kit import perception
+
+    fov = math.degrees(2 * math.atan(320 / 525))
+    stretch = 100 * (float(perception.depth_to_range(2.0, 0.0, 525.0, 319.5)) / 2.0 - 1)
+    text = _cell(SOLUTION["06"], "06-20").source
+    printed = _printed(_cell(SOLUTION["06"], "06-24"))
+    assert f"{fov:.1f}°" in text and f"{stretch:.0f} % more than $z$" in text, text
+    assert f"spans {fov:.1f}°" in printed and f"{stretch:.0f} % more than z" in printed
+    assert "12 %" not in text
+
+
+def test_lab07s_banana_is_a_long_thin_arc_as_the_text_says():
+    text = _cell(SOLUTION["07"], "07-13").source
+    printed = _printed(_cell(SOLUTION["07"], "07-14"))
+    found = re.search(r"lie (\d+\.\d+) ± (\d+\.\d+) m from the start.*banana (\d+\.\d) m long and "
+                      r"(\d+\.\d+) m thick", printed)
+    assert "banana" in text and found, printed
+    reach, spread, long, thick = (float(v) for v in found.groups())
+    assert long > 5 * thick and reach > 10 * spread     # an arc at one distance, not a blob
+
+
+def test_lab07s_office_run_starts_from_the_uniform_spread_the_text_promises():
+    text = _cell(SOLUTION["07"], "07-27").source
+    printed = _printed(_cell(SOLUTION["07"], "07-28"))
+    found = re.search(r"from (\d+) particles spread over the office's free space: x from "
+                      r"(-?\d+\.\d) to (\d+\.\d) m, y from (-?\d+\.\d) to (\d+\.\d) m", printed)
+    assert "uniform spread" in text and found, printed
+    n, x0, x1, y0, y1 = (float(v) for v in found.groups())
+    assert n >= 10000 and x1 - x0 > 18 and y1 - y0 > 11      # the office is 20 m × 12 m
+    source = _cell(SOLUTION["07"], "07-28").source
+    assert '(kit_run, 0, "the start")' in source      # the first panel is that spread
+
+
+DEGRADED = {
+    # lab: (cell to degrade, its solution line, the degraded line, the cell whose printout
+    #       must change, the lines that stay (the kit's), the lines that change (yours))
+    "06": ("06-16", "    return geometry.transform_points(geometry.inverse(laser_at_reference), "
+                    "point)[0]",
+           "    return np.array([r * math.cos(angle), r * math.sin(angle)])  # not de-skewed",
+           "06-26b", "the kit's pipeline", "yours     pipeline"),
+    "07": ("07-16", "    c, s = np.cos(p[:, 2:3]), np.sin(p[:, 2:3])",
+           "    c, s = np.ones((len(p), 1)), np.zeros((len(p), 1))   # θ ignored",
+           "07-28", "the kit's AMCL", "your AMCL"),
+    "08": ("08-03", "    return np.clip(np.asarray(l, dtype=float) + np.asarray(change, "
+                    "dtype=float), l_min, l_max)",
+           "    return np.clip(np.asarray(l, dtype=float) * 0.5 + np.asarray(change, "
+           "dtype=float), l_min, l_max)   # halved",
+           "08-11", None, "137 scans"),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("lab", sorted(DEGRADED))
+def test_a_degraded_student_function_changes_what_the_whole_system_prints(lab, monkeypatch):
+    """The solution with one exercise broken on purpose, run up to its lab's whole-system
+    cell: the lines computed with the student's functions change, the kit's do not."""
+    monkeypatch.setenv("KIT_FAST", "1")
+    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+    for variable in ("KIT_GRADING", "NBGRADER_EXECUTION"):
+        monkeypatch.delenv(variable, raising=False)
+    broken_cell, old, new, target, kept, changed = DEGRADED[lab]
+    path = SOLUTION[lab]
+    nb = nbformat.read(path, as_version=4)
+    ids = [c.get("id") for c in nb.cells]
+    keep = []
+    for cell in nb.cells[:ids.index(target) + 1]:
+        if cell.cell_type != "code":
+            continue
+        exercise = "### BEGIN SOLUTION" in cell.source
+        if cell.get("id") in (ids[1], broken_cell, target) or exercise or \
+                "yours.pieces(" in cell.source:
+            keep.append(cell)
+    stored = _printed(nb.cells[ids.index(target)])
+    broken = next(c for c in keep if c.get("id") == broken_cell)
+    assert old in broken.source
+    broken.source = broken.source.replace(old, new)
+    run = nbformat.v4.new_notebook(cells=keep, metadata=nb.metadata)
+    NotebookClient(run, timeout=600, allow_errors=False, kernel_name="python3",
+                   resources={"metadata": {"path": str(path.parent)}}).execute()
+    printed = _printed(keep[-1])
+
+    def lines(text, start):
+        return [line for line in text.splitlines() if line.startswith(start)]
+
+    assert lines(stored, changed) and lines(printed, changed)
+    assert lines(printed, changed) != lines(stored, changed), printed
+    if kept is not None:
+        assert lines(printed, kept) == lines(stored, kept)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", [p for p in LAB_NOTEBOOKS if p.name[:2] in ("06", "07", "08")],
+                         ids=lambda p: p.name)
+def test_a_cell_that_needs_an_unfinished_exercise_draws_no_figure(path, monkeypatch):
+    """Untouched, a cell stopped by an exercise stub prints its one line and nothing else: no
+    empty or half-drawn figure under it (the exercise runs before the figure is made)."""
+    monkeypatch.setenv("KIT_FAST", "1")
+    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+    for variable in ("KIT_GRADING", "NBGRADER_EXECUTION"):
+        monkeypatch.delenv(variable, raising=False)
+    nb = nbformat.read(path, as_version=4)
+    NotebookClient(nb, timeout=300, allow_errors=False, kernel_name="python3",
+                   resources={"metadata": {"path": str(path.parent)}}).execute()
+    for position, cell in enumerate(nb.cells, start=1):
+        if cell.cell_type == "code" and NEEDS.search(_printed(cell)):
+            drawn = [o for o in cell.outputs if "image/png" in o.get("data", {})]
+            assert not drawn, f"cell {position} draws a figure under {_printed(cell)!r}"

@@ -45,11 +45,18 @@ _L = (_MODEL.l_min, _MODEL.l_max)
 
 
 def _update_hidden(rng: np.random.Generator) -> list[Case]:
+    """Random cells, and in every case a cell at each clamp (or within one update of it)
+    that the change pushes further out: a wall seen again, a free cell passed again."""
     cases = []
     for i in range(3):
         n = int(rng.integers(5, 12))
         l = rng.uniform(_L[0], _L[1], n)  # noqa: E741
         change = rng.choice([_MODEL.l_occupied, _MODEL.l_free, 0.0], n) * rng.integers(1, 4, n)
+        top, bottom = rng.choice(n, 2, replace=False)
+        l[top] = _L[1] - float(rng.uniform(0.0, 0.5)) * _MODEL.l_occupied
+        change[top] = _MODEL.l_occupied * int(rng.integers(1, 4))
+        l[bottom] = _L[0] - float(rng.uniform(0.0, 0.5)) * _MODEL.l_free
+        change[bottom] = _MODEL.l_free * int(rng.integers(1, 4))
         cases.append(Case(f"random {i}", (l, change, *_L)))
     return cases
 
@@ -65,8 +72,8 @@ update_log_odds = Exercise(
     hidden=_update_hidden, rtol=1e-12, atol=1e-12,
     diagnostics=(
         Diagnostic("log-odds not clamped", _update_unclamped,
-                   "clamp to [l_min, l_max]: a cell seen as a wall a thousand times must "
-                   "still be able to turn free when a door opens"),
+                   "add, then clamp to [l_min, l_max] (the sum l + change): a cell seen as a "
+                   "wall a thousand times must still be able to turn free when a door opens"),
         Diagnostic("probabilities multiplied", _update_probabilities,
                    "in log-odds the Bayes update is a sum: l ← l + change, then clamp"),
     ),
@@ -108,14 +115,31 @@ def _endpoints_with_inf(ranges: Any, angle_min: float, angle_increment: float,
         return geometry.transform_points(laser_pose, points)
 
 
+def _endpoints_rotated_back(ranges: Any, angle_min: float, angle_increment: float,
+                            laser_pose: Any) -> Any:
+    """Rᵀ in place of R: turned by −θ, then the laser's position added."""
+    p = geometry.check_pose(laser_pose)
+    local = _endpoints(ranges, angle_min, angle_increment, [0.0, 0.0, -p[2]])
+    return local + p[:2]
+
+
+def _endpoints_from_one(ranges: Any, angle_min: float, angle_increment: float,
+                        laser_pose: Any) -> Any:
+    return _endpoints(ranges, angle_min + angle_increment, angle_increment, laser_pose)
+
+
 def _endpoints_hidden(rng: np.random.Generator) -> list[Case]:
+    """The laser heading near ±π/2, near ±π and anywhere; inf beams in every case."""
+    headings = [float(rng.choice([-1.0, 1.0])) * (np.pi / 2 + float(rng.uniform(-0.3, 0.3))),
+                float(rng.choice([-1.0, 1.0])) * (np.pi - float(rng.uniform(0.0, 0.1))),
+                float(rng.uniform(-np.pi, np.pi))]
     cases = []
-    for i in range(3):
+    for i, heading in enumerate(headings):
         n = int(rng.integers(6, 20))
         r = rng.uniform(0.3, 8.0, n)
         r[rng.random(n) < 0.2] = np.inf
-        pose = [float(rng.uniform(-5, 5)), float(rng.uniform(-5, 5)),
-                float(rng.uniform(-np.pi, np.pi))]
+        r[int(rng.integers(1, n))] = np.inf
+        pose = [float(rng.uniform(-5, 5)), float(rng.uniform(-5, 5)), heading]
         cases.append(Case(f"random {i}", (r, float(-np.pi / 2), float(np.pi / (n - 1)), pose)))
     return cases
 
@@ -138,6 +162,12 @@ beam_endpoints = Exercise(
         Diagnostic("inf ranges made into points", _endpoints_with_inf,
                    "REP-117: an inf range saw nothing within range_max; it is not an "
                    "obstacle point — leave it out"),
+        Diagnostic("Rᵀ in place of R", _endpoints_rotated_back,
+                   "the beams turned by −θ: into the map frame a point goes by "
+                   "R(θ) = [[cos θ, −sin θ], [sin θ, cos θ]], then + (x, y)"),
+        Diagnostic("the first beam at angle_min + angle_increment", _endpoints_from_one,
+                   "beam k = 0 leaves at angle_min itself: α_k = angle_min + k · "
+                   "angle_increment, k = 0 … N − 1"),
     ),
     blocked=_BLOCKED,
 )
@@ -160,13 +190,40 @@ def _edge_error_difference(x_i: Any, x_j: Any, z: Any) -> Any:
     return np.asarray(x_j, float) - np.asarray(x_i, float) - np.asarray(z, float)
 
 
+def _edge_error_order_swapped(x_i: Any, x_j: Any, z: Any) -> Any:
+    """t2v((X_i⁻¹ X_j)⁻¹ Z): the residual inverted."""
+    return geometry.relative(geometry.relative(x_i, x_j), z)
+
+
+def _edge_error_not_transposed(x_i: Any, x_j: Any, z: Any) -> Any:
+    """X_i⁻¹ X_j written with R(θ_i) where R(θ_i)ᵀ belongs."""
+    a, b = geometry.check_pose(x_i), geometry.check_pose(x_j)
+    seen = geometry.transform_points([0.0, 0.0, a[2]], (b[:2] - a[:2])[None, :])[0]
+    return geometry.relative(z, [seen[0], seen[1], b[2] - a[2]])
+
+
 def _pose(rng: np.random.Generator, spread: float = 3.0) -> list[float]:
     return [float(rng.uniform(-spread, spread)), float(rng.uniform(-spread, spread)),
             float(rng.uniform(-np.pi, np.pi))]
 
 
 def _edge_hidden(rng: np.random.Generator) -> list[Case]:
-    return [Case(f"random {i}", (_pose(rng), _pose(rng), _pose(rng, 1.0))) for i in range(4)]
+    """Two random edges, and two whose nodes face across ±π with a measurement that nearly
+    agrees (the angle's residual is small once wrapped and near ±2π before); node i never
+    faces along an axis."""
+    cases = []
+    for i in range(2):
+        side = float(rng.choice([-1.0, 1.0]))
+        x_i = _pose(rng)
+        x_i[2] = side * (np.pi - float(rng.uniform(0.05, 0.3)))
+        x_j = _pose(rng)
+        x_j[2] = -side * (np.pi - float(rng.uniform(0.05, 0.3)))
+        true = geometry.relative(x_i, x_j)
+        z = [float(true[0] + rng.normal(0, 0.1)), float(true[1] + rng.normal(0, 0.1)),
+             float(geometry.wrap_angle(true[2] + rng.normal(0, 0.05)))]
+        cases.append(Case(f"random {i}", (x_i, x_j, z)))
+    return cases + [Case(f"random {i}", (_pose(rng), _pose(rng), _pose(rng, 1.0)))
+                    for i in (2, 3)]
 
 
 edge_error = Exercise(
@@ -185,6 +242,12 @@ edge_error = Exercise(
         Diagnostic("poses subtracted in the world frame", _edge_error_difference,
                    "the measurement is node j seen from node i: e = t2v(Z⁻¹ (X_i⁻¹ X_j)), "
                    "not x_j − x_i − z"),
+        Diagnostic("the other transform inverted", _edge_error_order_swapped,
+                   "e = t2v(Z⁻¹ · (X_i⁻¹ X_j)): invert the measurement Z and compose it with "
+                   "node j seen from node i; inverting X_i⁻¹ X_j instead gives the residual's "
+                   "inverse (its signs flip)"),
+        Diagnostic("R(θ_i) in place of its transpose", _edge_error_not_transposed,
+                   "node j seen from node i is R(θ_i)ᵀ (t_j − t_i): X_i⁻¹ rotates by −θ_i"),
     ),
     blocked=_BLOCKED,
 )
@@ -240,6 +303,41 @@ def _gn_step(poses: Any, edges: Any) -> Any:
     return pg.gauss_newton_step(_graph(poses, edges))
 
 
+def _gn_system(poses: Any, edges: Any) -> tuple[Any, Any]:
+    """H and b of the whole graph (every node, none fixed)."""
+    x = np.asarray(poses, dtype=float)
+    n = len(x)
+    H, b = np.zeros((3 * n, 3 * n)), np.zeros(3 * n)
+    for i, j, z, omega in edges:
+        om = np.asarray(omega, dtype=float)
+        e = pg.edge_error(x[i], x[j], z)
+        blocks = tuple(zip((int(i), int(j)), pg.edge_jacobians(x[i], x[j], z), strict=True))
+        for p, P in blocks:
+            b[3 * p:3 * p + 3] += P.T @ om @ e
+            for q, Q in blocks:
+                H[3 * p:3 * p + 3, 3 * q:3 * q + 3] += P.T @ om @ Q
+    return H, b
+
+
+def _gn_unwrapped(poses: Any, edges: Any) -> Any:
+    """x + Δx with the angles left as they come out of the sum."""
+    x = np.asarray(poses, dtype=float)
+    H, b = _gn_system(poses, edges)
+    dx = np.zeros(len(b))
+    dx[3:] = np.linalg.solve(H[3:, 3:], -b[3:])
+    return x + dx.reshape(-1, 3)
+
+
+def _gn_free(poses: Any, edges: Any) -> Any:
+    """Every node free: the least-squares (pseudo-inverse) step of the singular system,
+    which moves node 0 too."""
+    x = np.asarray(poses, dtype=float)
+    H, b = _gn_system(poses, edges)
+    new = x + (np.linalg.pinv(H) @ -b).reshape(-1, 3)
+    new[:, 2] = geometry.wrap_angle(new[:, 2])
+    return new
+
+
 def _gn_information_inverted(poses: Any, edges: Any) -> Any:
     return pg.gauss_newton_step(_graph(poses, edges, invert=True))
 
@@ -273,8 +371,31 @@ def _loop(rng: np.random.Generator | None, n: int, noise: float) -> tuple[Any, l
     return guess, edges
 
 
+def _across_pi(rng: np.random.Generator) -> tuple[Any, list[Any]]:
+    """A chain of nodes heading near ±π whose odometry says that node k turned just past π,
+    while the initial guess leaves it just short of π: the step carries its angle across ±π
+    (and leaves the other nodes' angles where they are)."""
+    n = int(rng.integers(3, 6))
+    k = int(rng.integers(1, n))                          # the node that crosses
+    side = float(rng.choice([-1.0, 1.0]))
+    truth = np.zeros((n, 3))
+    truth[0, 2] = side * (np.pi - float(rng.uniform(0.1, 0.3)))
+    past = side * (np.pi + float(rng.uniform(0.03, 0.1)))          # node k's true heading
+    for m in range(1, n):
+        turn = past - truth[m - 1, 2] if m == k else float(rng.uniform(-0.05, 0.05))
+        truth[m] = geometry.compose(truth[m - 1], [float(rng.uniform(0.5, 1.5)),
+                                                   float(rng.uniform(-0.1, 0.1)), turn])
+    info = np.diag([100.0, 50.0, 400.0])
+    edges = [(m, m + 1, geometry.relative(truth[m], truth[m + 1]), info) for m in range(n - 1)]
+    guess = truth + np.column_stack([rng.normal(0, 0.05, (n, 2)), np.zeros(n)])
+    guess[0] = truth[0]
+    guess[k, 2] = side * (np.pi - float(rng.uniform(0.03, 0.1)))
+    return guess, edges
+
+
 def _gn_hidden(rng: np.random.Generator) -> list[Case]:
-    cases = []
+    """A chain that carries an angle across ±π, and two drifted loops."""
+    cases = [Case("random chain", _across_pi(rng))]
     for i in range(2):
         poses, edges = _loop(rng, int(rng.integers(4, 8)), float(rng.uniform(0.05, 0.2)))
         cases.append(Case(f"random loop {i}", (poses, edges)))
@@ -283,12 +404,15 @@ def _gn_hidden(rng: np.random.Generator) -> list[Case]:
 
 _THREE = (np.array([[0.0, 0.0, 0.0], [1.1, 0.0, 0.0], [2.1, 0.1, 0.0]]),
           [(0, 1, [1.0, 0.0, 0.0], np.eye(3)), (1, 2, [1.0, 0.0, 0.0], np.eye(3))])
+_THROUGH_PI = (np.array([[0.0, 0.0, 3.0], [1.0, 0.1, 3.1], [2.0, 0.0, -3.0]]),
+               [(0, 1, [1.0, 0.0, 0.2], np.eye(3)), (1, 2, [1.0, 0.0, 0.0], np.eye(3))])
 
 gauss_newton_step = Exercise(
     id="lab08.gauss_newton_step", function="gauss_newton_step",
     title="One Gauss–Newton step of a pose graph", reference=_gn_step, points=3,
     public=(Case("three nodes in a row", _THREE),
-            Case("a drifted loop of six", _loop(None, 6, 0.0))),
+            Case("a drifted loop of six", _loop(None, 6, 0.0)),
+            Case("turning through ±π", _THROUGH_PI)),
     hidden=_gn_hidden, rtol=1e-7, atol=1e-9,
     diagnostics=(
         Diagnostic("information matrix inverted", _gn_information_inverted,
@@ -296,8 +420,15 @@ gauss_newton_step = Exercise(
                    "H += Aᵀ Ω A, b += Aᵀ Ω e"),
         Diagnostic("the step taken uphill", _gn_gradient_sign,
                    "solve H Δx = −b (b = Σ Jᵀ Ω e): the step goes against the gradient"),
+        Diagnostic("angles not wrapped after the step", _gn_unwrapped,
+                   "wrap every θ of x + Δx to [-π, π): a node that turns past π must come "
+                   "out near −π"),
+        Diagnostic("node 0 not held fixed", _gn_free,
+                   "the graph only knows relative poses, so H is singular: hold node 0 "
+                   "fixed — solve H[3:, 3:] Δx[3:] = −b[3:] and leave Δx[:3] = 0"),
     ),
     blocked=_BLOCKED,
+    uses=("edge_error", "edge_jacobians"),
 )
 
 

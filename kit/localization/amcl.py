@@ -36,7 +36,7 @@ import dataclasses
 import math
 import warnings
 from collections import deque
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -53,7 +53,7 @@ from kit.localization.likelihood_field import (
     beam_model_weights,
     likelihood_field_weights,
 )
-from kit.localization.particles import ParticleFilter, uniform_free_poses
+from kit.localization.particles import ParticleFilter, Sampler, uniform_free_poses
 from kit.perception import reverse_beam_order, scan_to_points_tf
 from kit.tf import ExtrapolationError, RigidTransform, TransformTree
 
@@ -278,12 +278,38 @@ class Amcl:
         Nav2's parameters.
     seed : int, optional
         Seeds the filter's random numbers (else ``params.random_seed`` if >= 0, else fresh).
+    odometry_control, log_likelihoods, normalize, should_resample, sampler : callable, optional
+        Pieces of the filter written elsewhere (a lab's exercises), each used in place of
+        the kit's own; ``None`` keeps the kit's. ``odometry_control(odom_previous,
+        odom_current) -> (δrot1, δtrans, δrot2)``; ``log_likelihoods(poses (N, 3),
+        endpoints (M, 2) in base, distance (H, W) [m], resolution [m], origin (x, y) [m],
+        z_hit, z_rand, sigma_hit, range_max) -> (N,)``, the product of the beams' likelihood
+        field summed as logs (so ``laser_model_type`` must be ``likelihood_field_prob``, and
+        the map's origin must not be rotated); ``normalize(log_weights) -> weights``;
+        ``should_resample(weights, ess_threshold) -> bool``, in place of
+        ``N_eff < ess_threshold · N``; ``sampler(weights, n, r) -> indices``, a low-variance
+        sampler given its offset ``r`` (:data:`kit.localization.particles.Sampler`).
     """
 
     def __init__(self, grid: msgs.OccupancyGrid, params: AmclParameters | None = None,
-                 seed: int | None = None) -> None:
+                 seed: int | None = None, *,
+                 odometry_control: Callable[..., ArrayLike] | None = None,
+                 log_likelihoods: Callable[..., ArrayLike] | None = None,
+                 normalize: Callable[[FloatArray], ArrayLike] | None = None,
+                 should_resample: Callable[[FloatArray, float], bool] | None = None,
+                 sampler: Sampler | None = None) -> None:
         self.params = params or AmclParameters()
         self.field = LikelihoodField.from_grid(grid, self.params.laser_likelihood_max_dist)
+        if log_likelihoods is not None and (
+                self.params.laser_model_type != "likelihood_field_prob" or self.field.origin[2]):
+            raise ValueError("a log_likelihoods function computes the likelihood field's "
+                             "product: it needs laser_model_type 'likelihood_field_prob' and a "
+                             "map whose origin is not rotated")
+        self.odometry_control = odometry_control
+        self.log_likelihoods = log_likelihoods
+        self.normalize = normalize
+        self.should_resample = should_resample
+        self.sampler = sampler
         if seed is None and self.params.random_seed >= 0:
             seed = self.params.random_seed
         self.rng = np.random.default_rng(seed)
@@ -366,6 +392,15 @@ class Amcl:
                 int(np.count_nonzero(~np.isnan(r)))
         endpoints = beam_endpoints(ranges, laser.bearings, laser.position, range_min,
                                    range_max, p.max_beams, points)
+        if self.log_likelihoods is not None:
+            f = self.field
+            ll = np.asarray(self.log_likelihoods(self.filter.poses.copy(), endpoints, f.distance,
+                                                 f.resolution, f.origin[:2].copy(), p.z_hit,
+                                                 p.z_rand, p.sigma_hit, range_max), dtype=float)
+            if ll.shape != (len(self.filter),):
+                raise ValueError(f"log_likelihoods must return one value per particle, shape "
+                                 f"({len(self.filter)},); got {ll.shape}")
+            return ll, len(endpoints)
         lf = LikelihoodFieldModel(p.z_hit, p.z_rand, p.sigma_hit,
                                   "amcl" if p.laser_model_type == "likelihood_field" else "product")
         return likelihood_field_weights(self.filter.poses, endpoints, self.field, lf,
@@ -387,19 +422,22 @@ class Amcl:
             return False
         p = self.params
         if self._odom_last is not None:
-            self.filter.predict(self._odom_last, odom, p.alphas)
+            self.filter.predict(self._odom_last, odom, p.alphas, self.odometry_control)
         given = None if points is None else np.asarray(points, dtype=np.float64)
         ll, beams = self._log_likelihoods(scan, self._laser(scan, T_base_laser), given)
         self.filter.weigh(ll, p.recovery_alpha_slow, p.recovery_alpha_fast,
-                          max(1, beams) if p.laser_model_type == "likelihood_field_prob" else 1)
+                          max(1, beams) if p.laser_model_type == "likelihood_field_prob" else 1,
+                          self.normalize)
         recovering = (p.recovery_alpha_slow > 0 or p.recovery_alpha_fast > 0) and \
             self.filter.random_share() > 0
         self._resample_count += 1
-        if self._resample_count % p.resample_interval == 0 and (
-                recovering or
-                self.filter.effective_sample_size() < p.ess_threshold * len(self.filter)):
+        degenerate = (bool(self.should_resample(self.filter.weights.copy(), p.ess_threshold))
+                      if self.should_resample is not None else
+                      self.filter.effective_sample_size() < p.ess_threshold * len(self.filter))
+        if self._resample_count % p.resample_interval == 0 and (recovering or degenerate):
             self.filter.resample(p.pf_err, p.pf_z, p.min_particles, p.max_particles,
-                                 self._random_poses if recovering else None, p.recovery_reset)
+                                 self._random_poses if recovering else None, p.recovery_reset,
+                                 self.sampler)
         self._odom_last = odom
         self._force_update = False
         self.estimate = self.filter.estimate()

@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry
 from kit.localization.likelihood_field import LikelihoodField
-from kit.models import sample_odometry_motion
+from kit.models import Control, sample_odometry_motion
 
 __all__ = [
     "BIN_SIZE",
@@ -169,10 +169,30 @@ def _bin_codes(keys: IntArray) -> IntArray:
         + keys[:, 2]
 
 
+Sampler = Callable[[FloatArray, int, float], ArrayLike]
+"""``sampler(weights (N,), n, r) -> indices (n,)``: a low-variance sampler given its offset
+``r ∈ [0, 1/n)`` (a lab's ``low_variance_resample``)."""
+
+
+def _sample(w: FloatArray, n: int, rng: np.random.Generator, sampler: Sampler | None
+            ) -> IntArray:
+    """``n`` indices by :func:`low_variance_resample`, or by ``sampler`` with the same one
+    draw of the offset from ``rng`` (so a correct sampler gives the same particles)."""
+    if sampler is None:
+        return low_variance_resample(w, n, rng)
+    drawn = np.asarray(sampler(w, n, float(rng.uniform(0.0, 1.0 / n))))
+    if drawn.shape != (n,) or drawn.dtype.kind not in "iu" or \
+            (n and (drawn.min() < 0 or drawn.max() >= len(w))):
+        raise ValueError(f"the sampler must return {n} integer indices in [0, {len(w)}); got "
+                         f"shape {drawn.shape}, dtype {drawn.dtype}")
+    return drawn.astype(np.int64)
+
+
 def kld_resample(poses: ArrayLike, weights: ArrayLike, rng: np.random.Generator, *,
                  pf_err: float = 0.05, pf_z: float = 0.99, min_particles: int = 500,
                  max_particles: int = 2000, random_share: float = 0.0,
-                 random_poses: Callable[[int], FloatArray] | None = None) -> FloatArray:
+                 random_poses: Callable[[int], FloatArray] | None = None,
+                 sampler: Sampler | None = None) -> FloatArray:
     """Resample ``poses`` (N, 3) by their ``weights`` with the low-variance sampler, as many
     as KLD-sampling asks for (:func:`kld_sample_limit`).
 
@@ -182,7 +202,8 @@ def kld_resample(poses: ArrayLike, weights: ArrayLike, rng: np.random.Generator,
     one by one, counting the histogram bins they fill, until the count exceeds the limit for
     the bins filled so far (AMCL's stopping rule) — so a large random share, which fills many
     bins, brings the set up to ``max_particles``, as in AMCL. Returns the new particles
-    (their weights are equal).
+    (their weights are equal). ``sampler`` replaces :func:`low_variance_resample` (see
+    :data:`Sampler`).
     """
     p = geometry.check_pose(poses, "poses").reshape(-1, 3)
     w = np.asarray(weights, dtype=np.float64)
@@ -197,7 +218,7 @@ def kld_resample(poses: ArrayLike, weights: ArrayLike, rng: np.random.Generator,
         raise ValueError("random_share > 0 needs random_poses to draw the random particles")
     candidates = np.empty((m, 3))
     if n_random < m:
-        drawn = low_variance_resample(w, m - n_random, rng)
+        drawn = _sample(w, m - n_random, rng, sampler)
         candidates[~is_random] = p[rng.permutation(drawn)]
     if n_random:
         assert random_poses is not None
@@ -380,13 +401,15 @@ class ParticleFilter:
         return len(self.poses)
 
     def predict(self, odom_previous: ArrayLike, odom_current: ArrayLike,
-                alphas: ArrayLike) -> None:
-        """Move the particles by the odometry's motion (:func:`sample_odometry_motion`)."""
+                alphas: ArrayLike, control: Control | None = None) -> None:
+        """Move the particles by the odometry's motion (:func:`sample_odometry_motion`;
+        ``control`` replaces its :func:`kit.models.odometry_control`)."""
         self.poses = sample_odometry_motion(self.poses, odom_previous, odom_current, alphas,
-                                            self.rng)
+                                            self.rng, control=control)
 
     def weigh(self, log_likelihoods: ArrayLike, alpha_slow: float = 0.0,
-              alpha_fast: float = 0.0, beams: int = 1) -> float:
+              alpha_fast: float = 0.0, beams: int = 1,
+              normalize: Callable[[FloatArray], ArrayLike] | None = None) -> float:
         """Multiply the weights by the likelihoods (given as logs), normalise, and update the
         recovery averages with the mean likelihood; returns that mean.
 
@@ -397,7 +420,8 @@ class ParticleFilter:
         beams of a product likelihood, the averages follow the typical *beam's* likelihood
         (a geometric mean), which moves by tens of percent from scan to scan where the
         product itself swings over orders of magnitude — and those swings would read as
-        lost track.
+        lost track. ``normalize(log_weights) -> weights`` replaces
+        :func:`normalize_log_weights`.
         """
         ll = np.asarray(log_likelihoods, dtype=np.float64)
         if ll.shape != self.weights.shape:
@@ -405,7 +429,15 @@ class ParticleFilter:
                              f"got {ll.shape}")
         with np.errstate(divide="ignore"):
             log_w = np.log(self.weights) + ll
-        self.weights = normalize_log_weights(log_w)
+        if normalize is None:
+            self.weights = normalize_log_weights(log_w)
+        else:
+            w = np.asarray(normalize(log_w), dtype=np.float64)
+            if w.shape != log_w.shape or not np.all(np.isfinite(w)) or np.any(w < 0) or \
+                    not w.sum() > 0:
+                raise ValueError(f"normalize must return {len(log_w)} finite non-negative "
+                                 f"weights with a positive sum; got {w[:4]}…")
+            self.weights = w
         top = float(np.max(log_w))
         if not (isinstance(beams, (int, np.integer)) and beams >= 1):
             raise ValueError(f"beams is a count >= 1; got {beams!r}")
@@ -426,19 +458,20 @@ class ParticleFilter:
     def resample(self, pf_err: float = 0.05, pf_z: float = 0.99, min_particles: int = 500,
                  max_particles: int = 2000,
                  random_poses: Callable[[int], FloatArray] | None = None,
-                 reset_averages: bool = True) -> int:
+                 reset_averages: bool = True, sampler: Sampler | None = None) -> int:
         """KLD low-variance resampling (:func:`kld_resample`), the weights becoming equal.
 
         With ``random_poses``, augmented MCL's share of the new particles are random poses;
         when that share is positive and ``reset_averages`` is set, the recovery averages
         restart (AMCL's rule, against "spiralling off into randomness"; the textbook's table
         8.3 keeps them, and goes on injecting until the likelihood is back to its long-term
-        level). Returns the number of particles.
+        level). Returns the number of particles. ``sampler``: see :func:`kld_resample`.
         """
         share = self.random_share() if random_poses is not None else 0.0
         self.poses = kld_resample(self.poses, self.weights, self.rng, pf_err=pf_err, pf_z=pf_z,
                                   min_particles=min_particles, max_particles=max_particles,
-                                  random_share=share, random_poses=random_poses)
+                                  random_share=share, random_poses=random_poses,
+                                  sampler=sampler)
         self.weights = np.full(len(self.poses), 1.0 / len(self.poses))
         if share > 0.0 and reset_averages:
             self.w_slow = self.w_fast = 0.0

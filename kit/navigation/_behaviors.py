@@ -20,7 +20,7 @@ from kit.navigation._costmap import collides_from, outline_points
 from kit.planning import Costmap
 
 __all__ = ["FAILED", "RUNNING", "SUCCEEDED", "BackUp", "Behavior", "GoalChecker",
-           "ProgressChecker", "Spin", "Wait"]
+           "ProgressChecker", "Spin", "Unavailable", "Wait"]
 
 RUNNING, SUCCEEDED, FAILED = "RUNNING", "SUCCEEDED", "FAILED"
 FloatArray = NDArray[np.float64]
@@ -133,6 +133,20 @@ class BackUp(Behavior):
         return RUNNING, (-self.speed, 0.0)
 
 
+class Unavailable(Behavior):
+    """A recovery the behaviour server does not offer: it fails at once (as Nav2's tree node
+    fails when its action server is missing)."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__()
+        self.name = name
+
+    def tick(self, time: float, pose: ArrayLike, costmap: Costmap | None
+             ) -> tuple[str, tuple[float, float]]:
+        self.reason = f"{self.name}: not among the behaviour server's behavior_plugins"
+        return FAILED, (0.0, 0.0)
+
+
 class Wait(Behavior):
     """Stand still for ``wait_duration`` seconds (Nav2's BT: 5 s)."""
 
@@ -152,10 +166,13 @@ class Wait(Behavior):
 @dataclass
 class ProgressChecker:
     """Nav2's ``SimpleProgressChecker``: the robot must move ``required_movement_radius``
-    metres from where it last did within ``movement_time_allowance`` seconds."""
+    metres from where it last did within ``movement_time_allowance`` seconds; with
+    ``required_movement_angle`` [rad], Nav2's ``PoseProgressChecker``: turning that far
+    counts too."""
 
     required_movement_radius: float = 0.5
     movement_time_allowance: float = 10.0
+    required_movement_angle: float | None = None
 
     def __post_init__(self) -> None:
         self._anchor: FloatArray | None = None
@@ -164,11 +181,18 @@ class ProgressChecker:
     def reset(self) -> None:
         self._anchor = None
 
+    def _moved(self, p: FloatArray) -> bool:
+        assert self._anchor is not None
+        if math.hypot(p[0] - self._anchor[0], p[1] - self._anchor[1]) > \
+                self.required_movement_radius:
+            return True
+        return self.required_movement_angle is not None and len(p) > 2 and abs(float(
+            geometry.wrap_angle(p[2] - self._anchor[2]))) > self.required_movement_angle
+
     def check(self, time: float, pose: ArrayLike) -> bool:
         """False once the robot has been stuck for longer than the allowance."""
         p = np.asarray(pose, dtype=float)
-        if self._anchor is None or math.hypot(p[0] - self._anchor[0], p[1] - self._anchor[1]) \
-                > self.required_movement_radius:
+        if self._anchor is None or self._moved(p):
             self._anchor, self._since = p.copy(), float(time)
             return True
         return time - self._since <= self.movement_time_allowance
@@ -178,11 +202,15 @@ class ProgressChecker:
 class GoalChecker:
     """Nav2's ``SimpleGoalChecker``: within ``xy_goal_tolerance`` metres and
     ``yaw_goal_tolerance`` radians; ``stateful``: once inside the xy tolerance it stays so
-    while the robot turns."""
+    while the robot turns. With ``trans_stopped_velocity`` [m/s], Nav2's
+    ``StoppedGoalChecker``: the robot must also be slower than that and than
+    ``rot_stopped_velocity`` [rad/s]."""
 
     xy_goal_tolerance: float = 0.25
     yaw_goal_tolerance: float = 0.25
     stateful: bool = True
+    trans_stopped_velocity: float | None = None
+    rot_stopped_velocity: float = 0.25
 
     def __post_init__(self) -> None:
         self._xy_reached = False
@@ -190,10 +218,16 @@ class GoalChecker:
     def reset(self) -> None:
         self._xy_reached = False
 
-    def is_goal_reached(self, pose: ArrayLike, goal: ArrayLike) -> bool:
+    def is_goal_reached(self, pose: ArrayLike, goal: ArrayLike,
+                        velocity: ArrayLike = (0.0, 0.0)) -> bool:
         p, g = np.asarray(pose, dtype=float), np.asarray(goal, dtype=float)
         if not self._xy_reached:
             if math.hypot(p[0] - g[0], p[1] - g[1]) > self.xy_goal_tolerance:
                 return False
             self._xy_reached = self.stateful
-        return abs(float(geometry.wrap_angle(g[2] - p[2]))) <= self.yaw_goal_tolerance
+        if abs(float(geometry.wrap_angle(g[2] - p[2]))) > self.yaw_goal_tolerance:
+            return False
+        if self.trans_stopped_velocity is None:
+            return True
+        v, w = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
+        return abs(v) <= self.trans_stopped_velocity and abs(w) <= self.rot_stopped_velocity

@@ -1,13 +1,11 @@
-"""The navigation costmaps: Nav2's global costmap (the whole map) and its local costmap (a
-window rolling with the robot), each a static layer, an obstacle layer fed by scans (marking
-the returns, clearing along the beams) and an inflation layer; the global one also takes a
-keep-out mask.
+"""The navigation costmaps — Nav2's global costmap (the whole map) and its local costmap (a
+window rolling with the robot), both the kit's one :class:`kit.planning.LayeredCostmap` — and
+the footprint on a costmap: the costs under a pose and its outline, and collisions.
 
-The obstacle layer here traces all of a scan's beams in one compiled loop (numba) — Nav2's
-Bresenham line, the same cells :class:`kit.planning.ObstacleLayer` walks beam by beam (a test
-compares them) — at a speed a 20 Hz controller in a simulation running many times faster than
-real time can afford.
-Unlike Nav2 it does not shorten a beam that leaves the grid: the cells beyond are dropped.
+:func:`navigation_costmap_params` gives the kit's own navigation costmaps' parameters (a
+static layer, one scan source marking and clearing, inflation reaching past the footprint;
+the global one with a keep-out mask before the inflation); :class:`NavigationCostmap` builds
+one in a call.
 """
 
 from __future__ import annotations
@@ -18,32 +16,69 @@ from typing import Any
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
 
-from kit import geometry, msgs, perception
+from kit import msgs
 from kit.planning import (
-    FREE_SPACE,
     INSCRIBED_INFLATED_OBSTACLE,
     LETHAL_OBSTACLE,
     NO_INFORMATION,
     Costmap,
-    apply_keepout,
+    CostmapParams,
+    InflationLayerParams,
+    KeepoutFilterParams,
+    LayeredCostmap,
+    ObservationSource,
+    ObstacleLayerParams,
+    StaticLayerParams,
     footprint_radii,
-    inflate,
-    inflation_cost,
     pad_footprint,
-    static_layer,
 )
-from kit.planning._obstacle import cells_in_polygon
 
 __all__ = ["NavigationCostmap", "collides_from", "footprint_collides", "footprint_costs",
-           "outline_points"]
+           "navigation_costmap_params", "outline_points"]
 
 FloatArray = NDArray[np.float64]
 
 
-class NavigationCostmap:
-    """A static layer, an obstacle layer and inflation, in Nav2's model.
+def navigation_costmap_params(footprint: ArrayLike, *, rolling_window: bool = False,
+                              width: float = 3.0, height: float = 3.0,
+                              resolution: float = 0.05, inflation_radius: float = 0.55,
+                              cost_scaling_factor: float = 10.0,
+                              obstacle_max_range: float = 2.5, raytrace_max_range: float = 3.0,
+                              keepout: bool = False, moving_margin: float = 0.0,
+                              footprint_padding: float = 0.0) -> CostmapParams:
+    """The kit's navigation costmap: a static layer, an obstacle layer with one scan source
+    (marking within ``obstacle_max_range``, clearing within ``raytrace_max_range`` [m]) and an
+    inflation layer — a ``rolling_window`` of ``width`` × ``height`` metres for the local
+    costmap; with ``keepout`` a keep-out filter between the static and the obstacle layer, so
+    that the zone is inflated like a wall.
+
+    The inflation radius is raised to the padded footprint's circumscribed radius + 0.1 m
+    when it is smaller, so that a centre's cost tells whether its footprint can touch
+    anything (Nav2 warns when it does not). The obstacle layer follows the kit's two rules
+    (:class:`kit.planning.ObstacleLayer`: beams not shortened at the grid's edge, marking
+    ranges in metres)."""
+    padded = pad_footprint(footprint, footprint_padding)
+    _, circumscribed = footprint_radii(padded)
+    source = ObservationSource(clearing=True, obstacle_max_range=obstacle_max_range,
+                               raytrace_max_range=raytrace_max_range)
+    layers: list[Any] = [StaticLayerParams()]
+    if keepout:
+        layers.append(KeepoutFilterParams())
+    layers += [ObstacleLayerParams(observation_sources=(source,), clip_rays=False,
+                                   range_in_cells=False, moving_margin=moving_margin),
+               InflationLayerParams(inflation_radius=max(float(inflation_radius),
+                                                         circumscribed + 0.1),
+                                    cost_scaling_factor=float(cost_scaling_factor))]
+    return CostmapParams(resolution=resolution, width=width, height=height,
+                         footprint=np.asarray(footprint, dtype=np.float64),
+                         footprint_padding=footprint_padding, rolling_window=rolling_window,
+                         layers=tuple(layers))
+
+
+class NavigationCostmap(LayeredCostmap):
+    """A :class:`~kit.planning.LayeredCostmap` with the kit's navigation parameters
+    (:func:`navigation_costmap_params`), in one call.
 
     Parameters
     ----------
@@ -79,244 +114,21 @@ class NavigationCostmap:
                  moving_margin: float = 0.0) -> None:
         if grid is None and not rolling_window:
             raise ValueError("a costmap without a static map must be a rolling window")
-        self.footprint = np.asarray(footprint, dtype=np.float64)
-        self.inscribed_radius, self.circumscribed_radius = footprint_radii(self.footprint)
-        # inflate beyond the circumscribed circle, so that a centre's cost tells whether its
-        # footprint can touch anything (Nav2 warns when it does not)
-        self.inflation_radius = max(float(inflation_radius), self.circumscribed_radius + 0.1)
-        self.cost_scaling_factor = float(cost_scaling_factor)
-        self.obstacle_max_range = float(obstacle_max_range)
-        self.raytrace_max_range = float(raytrace_max_range)
-        self.keepout = keepout
-        self.rolling = bool(rolling_window)
-        self.moving_margin = float(moving_margin)
-        self.static: NDArray[np.uint8] | None = None
-        self.static_origin = (0.0, 0.0)
-        if grid is not None:
-            self.static = static_layer(grid)
-            self.static_origin = (grid.info.origin.position.x, grid.info.origin.position.y)
-            self.resolution = float(grid.info.resolution)
-        else:
-            self.resolution = 0.05
-        self._static_distance: FloatArray | None = None
-        if self.moving_margin > 0 and self.static is not None:
-            self._static_distance = ndimage.distance_transform_edt(
-                self.static != LETHAL_OBSTACLE) * self.resolution
-        if keepout is not None and self.static is not None and not rolling_window:
-            # the mask is static: folded into the static layer once (Nav2 applies it to the
-            # master grid on every update; lethal either way)
-            self.static = apply_keepout(self.static, keepout, self.resolution,
-                                        self.static_origin)
-        if self.rolling:
-            if resolution is not None:
-                if grid is not None and not math.isclose(resolution, self.resolution):
-                    raise ValueError(f"a rolling window over a map takes the map's resolution "
-                                     f"({self.resolution} m); got {resolution}")
-                self.resolution = float(resolution)
-            cells = (round(height / self.resolution), round(width / self.resolution))
-            if min(cells) < 3:
-                raise ValueError(f"a rolling window needs at least 3 × 3 cells; got {cells}")
-            self.origin = (math.nan, math.nan)
-            self.obstacles = np.full(cells, FREE_SPACE, dtype=np.uint8)
-        else:
-            assert self.static is not None
-            self.origin = self.static_origin
-            self.obstacles = np.full(self.static.shape, FREE_SPACE, dtype=np.uint8)
+        if resolution is None:
+            resolution = float(grid.info.resolution) if grid is not None else 0.05
+        params = navigation_costmap_params(
+            footprint, rolling_window=rolling_window, width=width, height=height,
+            resolution=resolution, inflation_radius=inflation_radius,
+            cost_scaling_factor=cost_scaling_factor, obstacle_max_range=obstacle_max_range,
+            raytrace_max_range=raytrace_max_range,
+            keepout=keepout is not None and not rolling_window, moving_margin=moving_margin)
+        super().__init__(params, grid)
+        if keepout is not None and not rolling_window:
+            self.set_keepout_mask(keepout)
 
     def set_static(self, grid: msgs.OccupancyGrid) -> None:
-        """A new static map, as Nav2's static layer takes each ``/map`` that SLAM publishes.
-
-        The keep-out mask is applied again. A rolling window keeps what it has seen; a global
-        costmap keeps its marks when the map keeps its size and origin (SLAM drawn on a fixed
-        canvas) and starts its obstacle layer afresh otherwise. The resolution cannot change.
-        """
-        resolution = float(grid.info.resolution)
-        if not math.isclose(resolution, self.resolution):
-            raise ValueError(f"the new map's resolution {resolution} m differs from the "
-                             f"costmap's {self.resolution} m")
-        static = static_layer(grid)
-        origin = (grid.info.origin.position.x, grid.info.origin.position.y)
-        if self.keepout is not None and not self.rolling:
-            static = apply_keepout(static, self.keepout, self.resolution, origin)
-        if self.moving_margin > 0:
-            self._static_distance = ndimage.distance_transform_edt(
-                static != LETHAL_OBSTACLE) * self.resolution
-        if not self.rolling and (static.shape != self.obstacles.shape or not (
-                math.isclose(origin[0], self.static_origin[0], abs_tol=1e-9) and
-                math.isclose(origin[1], self.static_origin[1], abs_tol=1e-9))):
-            self.obstacles = np.full(static.shape, FREE_SPACE, dtype=np.uint8)
-            self.origin = origin
-        self.static, self.static_origin = static, origin
-
-    @property
-    def circumscribed_cost(self) -> int:
-        """The cost at a centre one cell beyond the circumscribed radius from the nearest
-        lethal cell: a pose whose centre costs less cannot touch an obstacle."""
-        return int(inflation_cost(self.circumscribed_radius + self.resolution,
-                                  self.inscribed_radius, self.cost_scaling_factor))
-
-    # ------------------------------------------------------------------ the window
-    def _roll(self, x: float, y: float) -> None:
-        """Move a rolling window's centre to ``(x, y)``, shifting what it remembers."""
-        h, w = self.obstacles.shape
-        res = self.resolution
-        anchor = self.static_origin
-        ox = anchor[0] + math.floor((x - w * res / 2 - anchor[0]) / res) * res
-        oy = anchor[1] + math.floor((y - h * res / 2 - anchor[1]) / res) * res
-        if math.isnan(self.origin[0]):
-            self.origin = (ox, oy)
-            return
-        dc = round((ox - self.origin[0]) / res)
-        dr = round((oy - self.origin[1]) / res)
-        if dc == 0 and dr == 0:
-            return
-        shifted = np.full_like(self.obstacles, FREE_SPACE)
-        src_r = slice(max(dr, 0), min(h, h + dr))
-        dst_r = slice(max(-dr, 0), min(h, h - dr))
-        src_c = slice(max(dc, 0), min(w, w + dc))
-        dst_c = slice(max(-dc, 0), min(w, w - dc))
-        if src_r.start < src_r.stop and src_c.start < src_c.stop:
-            shifted[dst_r, dst_c] = self.obstacles[src_r, src_c]
-        self.obstacles = shifted
-        self.origin = (ox, oy)
-
-    def _static_window(self) -> NDArray[np.uint8]:
-        """The static layer's costs under the window (unknown off the map)."""
-        h, w = self.obstacles.shape
-        if self.static is None:
-            return np.full((h, w), FREE_SPACE, dtype=np.uint8)
-        if not self.rolling:
-            return self.static
-        out = np.full((h, w), NO_INFORMATION, dtype=np.uint8)
-        r0 = round((self.origin[1] - self.static_origin[1]) / self.resolution)
-        c0 = round((self.origin[0] - self.static_origin[0]) / self.resolution)
-        sh, sw = self.static.shape
-        rs, re = max(r0, 0), min(r0 + h, sh)
-        cs, ce = max(c0, 0), min(c0 + w, sw)
-        if rs < re and cs < ce:
-            out[rs - r0:re - r0, cs - c0:ce - c0] = self.static[rs:re, cs:ce]
-        return out
-
-    # ------------------------------------------------------------------ observations
-    def update_scan(self, scan: msgs.LaserScan, sensor_pose: ArrayLike,
-                    robot_xy: ArrayLike | None = None) -> int:
-        """Clear along every beam of ``scan`` and mark its returns, the scanner at
-        ``sensor_pose`` (``(x, y, θ)`` in the costmap's frame); a rolling window first moves to
-        ``robot_xy`` (default: the scanner). Returns the number of cells marked."""
-        pose = geometry.check_pose(sensor_pose, "sensor_pose")
-        if self.rolling:
-            centre = pose[:2] if robot_xy is None else np.asarray(robot_xy, dtype=float)
-            self._roll(float(centre[0]), float(centre[1]))
-        points = perception.scan_to_points(scan, pose)
-        return self.add_points(points, (float(pose[0]), float(pose[1])))
-
-    def update_points(self, points: ArrayLike, sensor: tuple[float, float],
-                      robot_xy: ArrayLike) -> int:
-        """:meth:`add_points` for a scan already in the costmap's frame (de-skewed beam by
-        beam), a rolling window first moving to ``robot_xy``."""
-        if self.rolling:
-            self._roll(float(np.asarray(robot_xy)[0]), float(np.asarray(robot_xy)[1]))
-        return self.add_points(points, sensor)
-
-    def add_points(self, points: ArrayLike, sensor: tuple[float, float]) -> int:
-        """Clear from ``sensor`` towards each of ``points`` ((N, 2) [m]) and mark them."""
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        if len(pts) == 0:
-            return 0
-        res, (h, w) = self.resolution, self.obstacles.shape
-        sx, sy = sensor
-        d = pts - (sx, sy)
-        dist = np.hypot(d[:, 0], d[:, 1])
-        _clear_rays(self.obstacles, self._cell_index(np.array([[sx, sy]]))[0],
-                    self._cell_index(pts), math.ceil(self.raytrace_max_range / res))
-        near = pts[dist <= self.obstacle_max_range]
-        if self.moving_margin > 0:
-            near = np.vstack([near, self._moving_discs(near)])
-        cols = np.floor((near[:, 0] - self.origin[0]) / res).astype(np.int64)
-        rows = np.floor((near[:, 1] - self.origin[1]) / res).astype(np.int64)
-        inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
-        self.obstacles[rows[inside], cols[inside]] = LETHAL_OBSTACLE
-        return int(inside.sum())
-
-    def _cell_index(self, xy: FloatArray) -> NDArray[np.int64]:
-        """(row, col) of points (N, 2) — not bounded to the grid."""
-        return np.column_stack([np.floor((xy[:, 1] - self.origin[1]) / self.resolution),
-                                np.floor((xy[:, 0] - self.origin[0]) / self.resolution)]
-                               ).astype(np.int64)
-
-    def _moving_discs(self, points: FloatArray) -> FloatArray:
-        """Points filling a ``moving_margin`` disc round each return that the static map does
-        not explain (farther than 0.15 m from its obstacles; all of them without a map)."""
-        if self._static_distance is not None:
-            d = self._static_distance
-            cols = np.floor((points[:, 0] - self.static_origin[0]) / self.resolution)
-            rows = np.floor((points[:, 1] - self.static_origin[1]) / self.resolution)
-            ok = (rows >= 0) & (rows < d.shape[0]) & (cols >= 0) & (cols < d.shape[1])
-            away = np.ones(len(points), dtype=bool)
-            away[ok] = d[rows[ok].astype(int), cols[ok].astype(int)] > 0.15
-            points = points[away]
-        if len(points) == 0:
-            return np.zeros((0, 2))
-        r = self.moving_margin
-        step = self.resolution
-        g = np.arange(-r, r + 1e-9, step)
-        gx, gy = np.meshgrid(g, g)
-        disc = np.column_stack([gx.ravel(), gy.ravel()])
-        disc = disc[np.hypot(disc[:, 0], disc[:, 1]) <= r]
-        return (points[:, None, :] + disc[None, :, :]).reshape(-1, 2)
-
-    def clear(self) -> None:
-        """Forget every observation (Nav2's ClearEntireCostmap)."""
-        self.obstacles[:] = FREE_SPACE
-
-    # ------------------------------------------------------------------ the costmap
-    def costmap(self, robot_pose: ArrayLike | None = None) -> Costmap:
-        """The combined, inflated :class:`~kit.planning.Costmap`; with ``robot_pose`` the
-        obstacle cells under the footprint are cleared first (a rolling window also moves
-        there)."""
-        if robot_pose is not None:
-            pose = geometry.check_pose(robot_pose, "robot_pose")
-            if self.rolling:
-                self._roll(float(pose[0]), float(pose[1]))
-            polygon = geometry.transform_points(pose, self.footprint)
-            self.obstacles[cells_in_polygon(polygon, self.obstacles.shape, self.resolution,
-                                            self.origin)] = FREE_SPACE
-        elif self.rolling and math.isnan(self.origin[0]):
-            raise ValueError("a rolling window has no position before its first update")
-        master = np.maximum(self._static_window(), self.obstacles)
-        master[(self.obstacles == LETHAL_OBSTACLE)] = LETHAL_OBSTACLE
-        costs = inflate(master, self.resolution, inscribed_radius=self.inscribed_radius,
-                        inflation_radius=self.inflation_radius,
-                        cost_scaling_factor=self.cost_scaling_factor)
-        return Costmap(costs, self.resolution, self.origin)
-
-
-@njit(cache=True)
-def _clear_rays(grid: Any, start: Any, ends: Any, max_cells: int) -> None:
-    """Set to free the cells of Nav2's ray trace (:func:`kit.planning.raytrace_line`:
-    Bresenham along the dominant axis, at most ``max_cells`` long, both ends included) from
-    ``start`` (row, col) to each of ``ends`` (N, 2) that lie on ``grid``."""
-    h, w = grid.shape
-    r0, c0 = start[0], start[1]
-    for i in range(ends.shape[0]):
-        dy = ends[i, 0] - r0
-        dx = ends[i, 1] - c0
-        length = math.hypot(dx, dy)
-        x_major = abs(dx) >= abs(dy)
-        major = abs(dx) if x_major else abs(dy)
-        minor = abs(dy) if x_major else abs(dx)
-        scale = max_cells / max(length, 1e-12) if length > max_cells else 1.0
-        steps = min(int(scale * major), major)
-        s_major = np.sign(dx) if x_major else np.sign(dy)
-        s_minor = np.sign(dy) if x_major else np.sign(dx)
-        safe = max(major, 1)
-        for k in range(steps + 1):
-            along = k * s_major
-            across = (major // 2 + k * minor) // safe * s_minor
-            row = r0 + (across if x_major else along)
-            col = c0 + (along if x_major else across)
-            if 0 <= row < h and 0 <= col < w:
-                grid[row, col] = FREE_SPACE
+        """:meth:`~kit.planning.LayeredCostmap.set_map` (the name it had here)."""
+        self.set_map(grid)
 
 
 # ---------------------------------------------------------------- the footprint on a costmap

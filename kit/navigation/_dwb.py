@@ -5,23 +5,28 @@ Every control period (1 / ``controller_frequency``):
 1. **The dynamic window** — the velocities reachable from the current ``(v, ω)`` within
    ``sim_time`` at the robot's acceleration limits (``acc_lim_*``, ``decel_lim_*``), clipped
    to ``[min_vel_x, max_vel_x]`` and ``±max_vel_theta``; ``vx_samples × vtheta_samples`` of
-   them (DWB's standard generator).
+   them (DWB's standard generator); with Nav2's kinematic limits set (``max_speed_xy``,
+   ``min_speed_xy`` with ``min_speed_theta``) the samples outside them, and standing still,
+   are invalid.
 2. **Forward simulation** — each sample driven for ``sim_time`` seconds, the velocity ramping
    towards it at the acceleration limits, in steps of at most ``linear_granularity`` metres
    and ``angular_granularity`` radians.
-3. **Critics** — each trajectory scored by DWB's critics, each with its scale:
-   ``BaseObstacle`` (the sum of the inflation costs under the trajectory; invalid when the
-   footprint meets a lethal cell), ``PathDist`` and ``GoalDist`` (distance of the last pose to
-   the path and to the local goal, in cells), ``PathAlign`` and ``GoalAlign`` (the same for a
-   point ``forward_point_distance`` ahead of the last pose, so the robot faces along the path;
-   off when the goal is within that distance plus ``xy_goal_tolerance`` — Nav2 turns them off
-   within ``forward_point_distance``, where a robot standing just outside the tolerance is
-   held still by a forward point that can only overshoot the path's end), ``RotateToGoal``
-   (once the robot has come within ``xy_goal_tolerance`` of the goal: first only samples
-   slower than now, scored by 5 v² and the heading error they end with; once slower than
-   ``trans_stopped_velocity`` only turns in place, scored by that error) and ``Oscillation``
-   (a trajectory that flips the sign of a command it flipped before, without having moved
-   ``oscillation_reset_dist``, is invalid).
+3. **Critics** — each trajectory scored by the critics listed in ``critics`` (Nav2's names;
+   only those score or rule trajectories out), each with its ``scale``:
+   ``BaseObstacle`` (the inflation costs under the trajectory, summed — ``sum_scores``, the
+   kit's default — or the last pose's, Nav2's; invalid when the footprint meets a lethal
+   cell), ``PathDist`` and ``GoalDist`` (distance of the last pose to the path and to the
+   local goal, in cells), ``PathAlign`` and ``GoalAlign`` (the same for a point
+   ``forward_point_distance`` — each critic its own — ahead of the last pose, so the robot
+   faces along the path; off when the goal is within that distance plus
+   ``xy_goal_tolerance`` — Nav2 turns them off within ``forward_point_distance``, where a
+   robot standing just outside the tolerance is held still by a forward point that can only
+   overshoot the path's end), ``RotateToGoal`` (once the robot has come within
+   ``xy_goal_tolerance`` of the goal: first only samples slower than now, scored by
+   ``slowing_factor`` · v² and the heading error they end with — or have at ``lookahead_time``
+   — ; once slower than ``trans_stopped_velocity`` only turns in place, scored by that error)
+   and ``Oscillation`` (a trajectory that flips the sign of a command it flipped before,
+   without having moved ``oscillation_reset_dist``, is invalid).
 4. **The best** — the valid trajectory with the lowest weighted sum; none valid raises
    :class:`~kit.navigation.ControlError` ("no valid trajectory").
 
@@ -74,11 +79,32 @@ class DwbParameters:
     angular_granularity: float = 0.025
     controller_frequency: float = 20.0
     forward_point_distance: float = 0.325
+    """PathAlign's ``forward_point_distance`` [m]."""
+    goal_align_forward_point_distance: float = 0.325
+    """GoalAlign's ``forward_point_distance`` [m] (Nav2: ``GoalAlign.forward_point_distance``)."""
     xy_goal_tolerance: float = 0.25
     trans_stopped_velocity: float = 0.25
     prune_distance: float = 2.0
     oscillation_reset_dist: float = 0.05
     oscillation_reset_angle: float = 0.2
+    slowing_factor: float = 5.0
+    """RotateToGoal's ``slowing_factor``: the weight of v² while arriving."""
+    rotate_lookahead_time: float = -1.0
+    """RotateToGoal's ``lookahead_time`` [s]: the heading error is taken where the trajectory
+    is at that time (interpolated); negative: at its end."""
+    sum_scores: bool = True
+    """BaseObstacle's ``sum_scores``: the sum of the costs under the trajectory (the kit's
+    default); ``False`` the cost under its last pose (Nav2's default)."""
+    max_speed_xy: float = -1.0
+    """A sample faster than this is invalid (Nav2's KinematicParameters); negative: no limit.
+    Nav2's default, 0, would forbid every motion: Nav2's files set it."""
+    min_speed_xy: float = -1.0
+    min_speed_theta: float = -1.0
+    """A sample slower than ``min_speed_xy`` that also turns slower than ``min_speed_theta``
+    is invalid (Nav2's KinematicParameters), as is standing still (both 0) whenever either
+    is set (not negative)."""
+    critics: tuple[str, ...] = CRITICS
+    """The critics that score (and may rule out) trajectories, by Nav2's names."""
     scales: dict[str, float] = field(default_factory=lambda: {
         "BaseObstacle": 0.02, "PathAlign": 32.0, "PathDist": 32.0, "GoalAlign": 24.0,
         "GoalDist": 24.0, "RotateToGoal": 32.0, "Oscillation": 1.0})
@@ -91,7 +117,7 @@ class DwbParameters:
             raise ValueError("decel_lim_x and decel_lim_theta are negative (Nav2's sign)")
         if self.vx_samples < 1 or self.vtheta_samples < 1:
             raise ValueError("vx_samples and vtheta_samples must be at least 1")
-        unknown = set(self.scales) - set(CRITICS)
+        unknown = (set(self.scales) | set(self.critics)) - set(CRITICS)
         if unknown:
             raise ValueError(f"unknown critics {sorted(unknown)}; the kit's are {CRITICS}")
 
@@ -103,6 +129,37 @@ class DwbParameters:
                    max_vel_theta=min(1.0, robot.max_angular_velocity),
                    acc_lim_x=a, decel_lim_x=-a)
         return replace(base, **overrides)  # type: ignore[arg-type]
+
+
+def _invalid_speed(vx: FloatArray, vth: FloatArray, p: DwbParameters) -> NDArray[np.bool_]:
+    """Nav2's ``isValidSpeed`` (1e-5 of slack): faster than ``max_speed_xy``, or slower than
+    ``min_speed_xy`` while turning slower than ``min_speed_theta``, or standing still — each
+    only when its limit is set (not negative)."""
+    eps = 1e-5
+    bad = np.zeros(len(vx), dtype=bool)
+    if p.max_speed_xy >= 0:
+        bad |= vx * vx > p.max_speed_xy ** 2 + eps
+    if p.min_speed_xy >= 0 and p.min_speed_theta >= 0:
+        bad |= (vx * vx + eps < p.min_speed_xy ** 2) & (np.abs(vth) + eps < p.min_speed_theta)
+    if p.max_speed_xy >= 0 or p.min_speed_xy >= 0:
+        bad |= (vx == 0.0) & (vth == 0.0)
+    return bad
+
+
+def _yaw_at(poses: FloatArray, yaw0: float, sim_time: float, t: float) -> FloatArray:
+    """Each trajectory's heading at time ``t`` [s] (Nav2's ``projectPose``: linear between
+    the poses around it, the start at 0 s; the last pose beyond the end)."""
+    steps = poses.shape[1]
+    dt = sim_time / steps
+    times = np.arange(steps + 1) * dt
+    yaws = np.concatenate([np.full((poses.shape[0], 1), yaw0), poses[:, :, 2]], axis=1)
+    if t <= 0.0:
+        return yaws[:, 0]
+    if t >= times[-1]:
+        return yaws[:, -1]
+    i = min(int(t / dt), steps - 1)
+    ratio = (t - times[i]) / dt
+    return yaws[:, i] * (1.0 - ratio) + yaws[:, i + 1] * ratio
 
 
 def dynamic_window(velocity: ArrayLike, p: DwbParameters) -> tuple[FloatArray, FloatArray]:
@@ -299,10 +356,14 @@ class DwbController:
         centre, edge = footprint_costs(costmap, poses, self._outline,
                                        self.circumscribed_cost)
         reasons: dict[str, int] = {}
+        critics = set(p.critics)
         hit = np.any((edge >= LETHAL_OBSTACLE) | (centre >= INSCRIBED_INFLATED_OBSTACLE),
-                     axis=1)
+                     axis=1) if "BaseObstacle" in critics else np.zeros(len(vx), dtype=bool)
         reasons["collision"] = int(hit.sum())
-        scores: dict[str, FloatArray] = {"BaseObstacle": centre.astype(float).sum(axis=1)}
+        slow = _invalid_speed(vx, vth, p)
+        reasons["speed limits"] = int(slow.sum())
+        scores: dict[str, FloatArray] = {"BaseObstacle": (
+            centre.astype(float).sum(axis=1) if p.sum_scores else centre[:, -1].astype(float))}
         local = self.local_plan(pose, costmap)
         goal = self.path[-1]
         v_now = float(np.asarray(velocity, dtype=float)[0])
@@ -315,33 +376,40 @@ class DwbController:
             [np.cos(end[:, 2]), np.sin(end[:, 2])])
         path_grid = self._distance_grid(costmap, local)
         goal_grid = self._distance_grid(costmap, local[-1:])
-        near_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1]) <= \
-            p.forward_point_distance + p.xy_goal_tolerance
+        to_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
         scores["PathDist"] = self._at(path_grid, costmap, end[:, :2])
         scores["GoalDist"] = self._at(goal_grid, costmap, end[:, :2])
         zero = np.zeros(len(vx))
-        scores["PathAlign"] = zero if near_goal else self._at(path_grid, costmap, ahead)
-        scores["GoalAlign"] = zero if near_goal else self._at(goal_grid, costmap, ahead)
-        valid = ~hit
-        if self._in_window:
+        scores["PathAlign"] = zero if to_goal <= p.forward_point_distance + \
+            p.xy_goal_tolerance else self._at(path_grid, costmap, ahead)
+        if p.goal_align_forward_point_distance != p.forward_point_distance:
+            ahead = end[:, :2] + p.goal_align_forward_point_distance * np.column_stack(
+                [np.cos(end[:, 2]), np.sin(end[:, 2])])
+        scores["GoalAlign"] = zero if to_goal <= p.goal_align_forward_point_distance + \
+            p.xy_goal_tolerance else self._at(goal_grid, costmap, ahead)
+        valid = ~hit & ~slow
+        if self._in_window and "RotateToGoal" in critics:
             target = self.goal_yaw if self.goal_yaw is not None else float(pose[2])
-            rotation = np.abs(geometry.wrap_angle(target - end[:, 2]))
+            yaw = end[:, 2] if p.rotate_lookahead_time < 0 else \
+                _yaw_at(poses, float(pose[2]), p.sim_time, p.rotate_lookahead_time)
+            rotation = np.abs(geometry.wrap_angle(target - yaw))
             if self._rotating:                 # at the goal: turning in place only
                 moving = np.abs(vx) > 0.0
                 scores["RotateToGoal"] = rotation
             else:                              # arriving: slow down, whatever else
                 moving = vx ** 2 >= v_now ** 2
-                scores["RotateToGoal"] = 5.0 * vx ** 2 + rotation
+                scores["RotateToGoal"] = p.slowing_factor * vx ** 2 + rotation
             valid &= ~moving
             reasons["moving near the goal"] = int(moving.sum())
         else:
             scores["RotateToGoal"] = zero
-        flips = self._oscillating(vx, vth)
-        valid &= ~flips
-        reasons["oscillation"] = int(flips.sum())
+        if "Oscillation" in critics:
+            flips = self._oscillating(vx, vth)
+            valid &= ~flips
+            reasons["oscillation"] = int(flips.sum())
         scores["Oscillation"] = zero
-        total = sum((p.scales.get(name, 0.0) * s for name, s in scores.items()),
-                    start=np.zeros(len(vx)))
+        total = sum((p.scales.get(name, 0.0) * s for name, s in scores.items()
+                     if name in critics), start=np.zeros(len(vx)))
         total = np.where(valid, total, np.inf)
         return Trajectories(np.column_stack([vx, vth]), poses, scores, valid, total, reasons)
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -36,24 +36,27 @@ from kit.navigation._behaviors import (
     GoalChecker,
     ProgressChecker,
     Spin,
+    Unavailable,
     Wait,
 )
-from kit.navigation._costmap import NavigationCostmap
-from kit.navigation._dwb import DwbController, DwbParameters
+from kit.navigation._config import NavigationConfig, NavigatorParameters
+from kit.navigation._dwb import DwbController
 from kit.navigation._path import ControlError
-from kit.navigation._pursuit import RegulatedPurePursuit, RppParameters
+from kit.navigation._pursuit import RegulatedPurePursuit
 from kit.planning import (
     INSCRIBED_INFLATED_OBSTACLE,
     Costmap,
-    GridPlanner,
+    CostmapParams,
+    KeepoutFilterParams,
+    LayeredCostmap,
     PlanningError,
+    StaticLayerParams,
     compute_path_to_pose,
-    pad_footprint,
     path_to_points,
 )
 from kit.robots import RobotDescription
 
-__all__ = ["Controller", "NavigationEvent", "Navigator", "NavigatorParameters"]
+__all__ = ["Controller", "NavigationEvent", "Navigator"]
 
 FloatArray = NDArray[np.float64]
 
@@ -65,30 +68,6 @@ class Controller(Protocol):
 
     def compute_velocity_commands(self, pose: ArrayLike, velocity: ArrayLike,
                                   costmap: Costmap) -> tuple[float, float]: ...
-
-
-@dataclass(frozen=True)
-class NavigatorParameters:
-    """Rates, retries and the checkers' and costmaps' parameters (Nav2's names)."""
-
-    planner_frequency: float = 1.0
-    controller_frequency: float = 20.0
-    local_update_frequency: float = 5.0
-    number_of_retries: int = 6
-    xy_goal_tolerance: float = 0.25
-    yaw_goal_tolerance: float = 0.25
-    required_movement_radius: float = 0.5
-    movement_time_allowance: float = 10.0
-    inflation_radius: float = 0.55
-    cost_scaling_factor: float = 10.0
-    local_width: float = 3.0
-    moving_margin: float = 0.0
-    """m: the local costmap marks returns the map does not explain as discs this wide (a
-    person's step before the next scan); 0 marks single cells, as Nav2's obstacle layer."""
-    footprint_padding: float = 0.05
-    """m around the footprint, in the costmaps and the controllers' collision checks (Nav2's
-    default is 0.01; the kit's 0.05 keeps a margin for servos lagging the commands)."""
-    remove_passed_goals_radius: float = 0.5
 
 
 @dataclass
@@ -126,52 +105,78 @@ class Navigator:
     robot
         The robot (its footprint and limits), e.g. ``kit.robots.load("uiabot")``.
     controller
-        ``"rpp"`` (default), ``"dwb"``, or an object with ``set_plan`` and
-        ``compute_velocity_commands`` (a student's controller).
+        ``"rpp"``, ``"dwb"`` (default: the configuration's, else ``"rpp"``), or an object with
+        ``set_plan`` and ``compute_velocity_commands`` (a student's controller).
+    params
+        The kit's navigator parameters, for the kit's own configuration
+        (:meth:`NavigationConfig.for_robot`).
     keepout
-        A keep-out mask for the global costmap (Nav2's keep-out filter).
+        A keep-out mask for the global costmap (Nav2's keep-out filter); a configuration with
+        no keep-out filter gets the kit's, right after the static layer, so that the zone is
+        inflated like a wall.
+    config
+        The whole configuration, e.g. from a Nav2 parameter file
+        (:func:`~kit.navigation.load_nav2_params`).
     """
 
     def __init__(self, grid: msgs.OccupancyGrid, robot: RobotDescription,
-                 controller: str | Controller = "rpp",
+                 controller: str | Controller | None = None,
                  params: NavigatorParameters | None = None,
-                 keepout: msgs.OccupancyGrid | None = None) -> None:
-        self.params = p = params or NavigatorParameters()
-        self.robot = robot
-        footprint = pad_footprint(robot.footprint, p.footprint_padding)
-        self.footprint = footprint
-        self.global_costmap = NavigationCostmap(
-            grid, footprint, inflation_radius=p.inflation_radius,
-            cost_scaling_factor=p.cost_scaling_factor, keepout=keepout)
-        self.local_costmap = NavigationCostmap(
-            grid, footprint, rolling_window=True, width=p.local_width,
-            height=p.local_width, inflation_radius=p.inflation_radius,
-            cost_scaling_factor=p.cost_scaling_factor, moving_margin=p.moving_margin)
-        self.planner = GridPlanner()
-        if controller == "dwb":
-            self.controller: Controller = DwbController(
-                DwbParameters.for_robot(robot, controller_frequency=p.controller_frequency,
-                                        xy_goal_tolerance=p.xy_goal_tolerance,
-                                        vx_samples=10, vtheta_samples=15,
-                                        angular_granularity=0.1),
-                footprint, self.local_costmap.circumscribed_cost)
-        elif controller == "rpp":
-            self.controller = RegulatedPurePursuit(
-                RppParameters.for_robot(robot, controller_frequency=p.controller_frequency),
-                footprint)
+                 keepout: msgs.OccupancyGrid | None = None, *,
+                 config: NavigationConfig | None = None) -> None:
+        if config is None:
+            name = controller if isinstance(controller, str) else "rpp"
+            if name not in ("rpp", "dwb"):
+                raise ValueError(f"controller is 'dwb', 'rpp' or a controller object; got "
+                                 f"{controller!r}")
+            config = NavigationConfig.for_robot(robot, name, params)
+        elif params is not None:
+            raise ValueError("give the navigator's parameters in config or in params, not both")
         elif isinstance(controller, str):
-            raise ValueError(f"controller is 'dwb', 'rpp' or a controller object; got "
-                             f"{controller!r}")
+            if controller not in ("rpp", "dwb"):
+                raise ValueError(f"controller is 'dwb', 'rpp' or a controller object; got "
+                                 f"{controller!r}")
+            config = config.with_controller(controller)
+        self.config = config
+        self.params = p = config.navigator
+        self.robot = robot
+        global_params = config.global_costmap
+        if keepout is not None and not any(isinstance(layer, KeepoutFilterParams) for layer in
+                                           (*global_params.layers, *global_params.filters)):
+            global_params = _with_keepout(global_params)
+        self.global_costmap = LayeredCostmap(global_params, grid)
+        self.global_costmap.set_keepout_mask(keepout)
+        self.local_costmap = LayeredCostmap(config.local_costmap, grid)
+        footprint = self.local_costmap.footprint
+        self.footprint = footprint
+        self.planner = config.planner.make()
+        if not isinstance(controller, (str, type(None))):
+            self.controller: Controller = controller
+        elif config.controller == "dwb":
+            self.controller = DwbController(config.dwb, footprint,
+                                            self.local_costmap.circumscribed_cost)
         else:
-            self.controller = controller
-        self.progress = ProgressChecker(p.required_movement_radius, p.movement_time_allowance)
-        self.goal_checker = GoalChecker(p.xy_goal_tolerance, p.yaw_goal_tolerance)
-        fp = footprint
+            self.controller = RegulatedPurePursuit(config.rpp, footprint)
+        self.progress = ProgressChecker(p.required_movement_radius, p.movement_time_allowance,
+                                        p.required_movement_angle)
+        self.goal_checker = GoalChecker(p.xy_goal_tolerance, p.yaw_goal_tolerance, p.stateful,
+                                        p.trans_stopped_velocity if p.goal_checker == "stopped"
+                                        else None, p.rot_stopped_velocity)
+        fp, b = footprint, config.behaviors
+        ahead, allowance = b.simulate_ahead_time, b.time_allowance
         self.behaviors: list[Behavior | None] = [
             None,                                    # clear both costmaps
-            Spin(footprint=fp, max_rotational_vel=min(1.0, robot.max_angular_velocity)),
-            Wait(footprint=fp),
-            BackUp(footprint=fp)]
+            Spin(spin_dist=b.spin_dist, max_rotational_vel=b.max_rotational_vel,
+                 min_rotational_vel=b.min_rotational_vel,
+                 rotational_acc_lim=b.rotational_acc_lim, footprint=fp,
+                 simulate_ahead_time=ahead, time_allowance=allowance),
+            Wait(wait_duration=b.wait_duration, footprint=fp, simulate_ahead_time=ahead,
+                 time_allowance=allowance),
+            BackUp(backup_dist=b.backup_dist, backup_speed=b.backup_speed, footprint=fp,
+                   simulate_ahead_time=ahead, time_allowance=allowance)]
+        for i, behavior in enumerate(self.behaviors):
+            if behavior is not None and behavior.name in b.unavailable:
+                self.behaviors[i] = Unavailable(behavior.name)
         self.state = _State()
         self.events: list[NavigationEvent] = []
         self.path = np.zeros((0, 2))
@@ -180,6 +185,7 @@ class Navigator:
         self._blind = False
         """True from a clearing of the local costmap until the next scan: no command but
         stop (a cleared costmap shows no obstacle at all)."""
+        self._last_valid = 0.0
 
     # ------------------------------------------------------------------ goals
     def navigate_to_pose(self, goal: ArrayLike, time: float = 0.0) -> None:
@@ -192,6 +198,7 @@ class Navigator:
             raise ValueError("navigate_through_poses needs at least one goal")
         checked = [geometry.check_pose(g, f"goal {i + 1}").copy() for i, g in enumerate(goals)]
         self.state = _State(goals=checked, status=RUNNING, next_plan=float(time))
+        self._last_valid = float(time)
         self.progress.reset()
         self.goal_checker.reset()
         if hasattr(self.controller, "reset"):
@@ -215,7 +222,7 @@ class Navigator:
         the map it was given (none, in effect, when that was unknown space: Nav2's default
         local costmap has no static layer): a person SLAM mapped as a wall while standing in
         a doorway must not hold the controller back once the lidar sees the doorway clear."""
-        self.global_costmap.set_static(grid)
+        self.global_costmap.set_map(grid)
 
     def on_scan(self, scan: msgs.LaserScan, laser_pose: ArrayLike, robot_pose: ArrayLike
                 ) -> None:
@@ -235,7 +242,7 @@ class Navigator:
 
     def local_costmap_now(self, time: float, pose: FloatArray) -> Costmap:
         if self._local is None or time >= self._local_due:
-            self._local = self.local_costmap.costmap(pose)
+            self._local = self.local_costmap.update(pose)
             self._local_due = time + 1.0 / self.params.local_update_frequency
         return self._local
 
@@ -248,7 +255,8 @@ class Navigator:
             return 0.0, 0.0
         pose_ = geometry.check_pose(pose, "pose")
         self._remove_passed_goals(pose_)
-        if self.goal_checker.is_goal_reached(pose_, s.goals[-1]):
+        velocity = self._thresholded(velocity)
+        if self.goal_checker.is_goal_reached(pose_, s.goals[-1], velocity):
             s.status = SUCCEEDED
             self.events.append(NavigationEvent(time, "succeeded"))
             return 0.0, 0.0
@@ -262,6 +270,16 @@ class Navigator:
             return 0.0, 0.0
         return self._follow(time, pose_, velocity)
 
+    def _thresholded(self, velocity: ArrayLike) -> ArrayLike:
+        """The odometry's speeds with those below the controller server's thresholds set
+        to 0 (none with the kit's thresholds of 0)."""
+        p = self.params
+        if p.min_x_velocity_threshold <= 0 and p.min_theta_velocity_threshold <= 0:
+            return velocity
+        v, w = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
+        return (0.0 if abs(v) < p.min_x_velocity_threshold else v,
+                0.0 if abs(w) < p.min_theta_velocity_threshold else w)
+
     def _remove_passed_goals(self, pose: FloatArray) -> None:
         goals = self.state.goals
         while len(goals) > 1 and math.hypot(goals[0][0] - pose[0], goals[0][1] - pose[1]) < \
@@ -273,7 +291,7 @@ class Navigator:
         s.next_plan = time + 1.0 / self.params.planner_frequency
         goals = s.goals
         for attempt in range(2):
-            costmap = _clear_start(self.global_costmap.costmap(pose), pose,
+            costmap = _clear_start(self.global_costmap.update(pose), pose,
                                    self.global_costmap.inscribed_radius)
             try:
                 result = compute_path_to_pose(pose, goals[-1], costmap, planner=self.planner,
@@ -307,6 +325,9 @@ class Navigator:
         try:
             v, w = self.controller.compute_velocity_commands(pose, velocity, costmap)
         except ControlError as e:
+            tolerance = self.params.failure_tolerance
+            if tolerance == -1.0 or (tolerance > 0 and time - self._last_valid <= tolerance):
+                return 0.0, 0.0                       # the controller server's patience
             s.control_failures += 1
             self.events.append(NavigationEvent(time, "control failed", e.reason))
             if s.control_failures == 1:
@@ -316,6 +337,7 @@ class Navigator:
             self._start_recovery(time, pose, f"following failed: {e.reason}")
             return self._recover(time, pose)
         s.control_failures = 0
+        self._last_valid = time
         if not (math.isfinite(v) and math.isfinite(w)):
             raise ValueError(f"the controller returned a non-finite command ({v}, {w})")
         return float(v), float(w)
@@ -362,6 +384,7 @@ class Navigator:
             return cmd
         if status == SUCCEEDED:
             s.behavior = None
+            self._last_valid = time
             self.progress.reset()
             return 0.0, 0.0
         self.events.append(NavigationEvent(time, "recovery failed", behavior.reason))
@@ -376,6 +399,16 @@ class Navigator:
         s = self.state
         s.status, s.reason, s.behavior = FAILED, reason, None
         self.events.append(NavigationEvent(time, "failed", reason))
+
+
+def _with_keepout(params: CostmapParams) -> CostmapParams:
+    """The costmap with the kit's keep-out layer right after the static layer (before the
+    obstacles and the inflation, so that the zone is inflated like a wall)."""
+    layers = list(params.layers)
+    at = next((i + 1 for i, layer in enumerate(layers) if isinstance(layer, StaticLayerParams)),
+              0)
+    layers.insert(at, KeepoutFilterParams())
+    return replace(params, layers=tuple(layers))
 
 
 def _clear_start(costmap: Costmap, pose: FloatArray, radius: float) -> Costmap:

@@ -126,11 +126,15 @@ class RppParameters:
     inflation_cost_scaling_factor: float = 3.0
     max_linear_accel: float = 2.5
     controller_frequency: float = 20.0
+    max_robot_pose_search_dist: float = 2.0
+    """m along the path from the last closest point within which the robot's closest point is
+    looked for (Nav2's default: half the local costmap's larger side)."""
     gentler_arcs_when_colliding: bool = False
 
     def __post_init__(self) -> None:
         require_positive(self, ("desired_linear_vel", "lookahead_dist", "min_lookahead_dist",
                                 "max_lookahead_dist", "lookahead_time",
+                                "max_robot_pose_search_dist",
                                 "rotate_to_heading_angular_vel", "controller_frequency",
                                 "max_angular_accel", "max_linear_accel"))
         if self.min_lookahead_dist > self.max_lookahead_dist:
@@ -205,7 +209,7 @@ class RegulatedPurePursuit:
         p = self.params
         pose_ = geometry.check_pose(pose, "pose")
         v_now, w_now = (float(x) for x in np.asarray(velocity, dtype=float)[:2])
-        self._index = closest_index(self.path, pose_, self._index, 2.0)
+        self._index = closest_index(self.path, pose_, self._index, p.max_robot_pose_search_dist)
         carrot = lookahead_point(self.path, pose_, self.lookahead(v_now), self._index)
         self.last_carrot = carrot
         local = geometry.transform_points(geometry.inverse(pose_), carrot[None, :])[0]

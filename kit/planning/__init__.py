@@ -3,9 +3,11 @@
 * Costmaps in Nav2's model — :class:`Costmap` (costs 0–255 with Nav2's constants),
   :func:`static_layer`, :func:`inflate` (and :func:`inflate_reference`, the plain version) with
   :func:`inflation_cost`, footprints (:func:`footprint_radii`, :func:`robot_footprint`), the
-  :class:`ObstacleLayer` (marking and ray-trace clearing from scans), :func:`apply_keepout`
-  (Nav2's keep-out filter), all combined by :class:`LayeredCostmap` from Nav2's parameters
-  (:func:`load_costmap_params` reads a Nav2 YAML as it is).
+  :class:`ObstacleLayer` (marking and ray-trace clearing from scans, compiled beside
+  :func:`raytrace_line`), :func:`apply_keepout` (Nav2's keep-out filter), all combined by
+  :class:`LayeredCostmap` from Nav2's parameters (:func:`load_costmap_params` reads a Nav2 YAML
+  as it is) — the whole map, or a window rolling with the robot. It is the kit's one costmap:
+  the planner plans on it, the navigator's global and local costmaps are two of it.
 * Grid search — :func:`dijkstra`, :func:`astar`, :func:`theta_star` (compiled) beside their
   readable ``*_reference`` versions, with the pieces: :func:`octile_distance`,
   :func:`diagonal_allowed` (the corner-cutting rule), :func:`traversal_cost`,
@@ -28,12 +30,14 @@ from kit.planning._costmap import (
     NO_INFORMATION,
     Costmap,
     apply_keepout,
+    apply_keepout_costs,
     cell_to_world,
     footprint_from_radius,
     footprint_radii,
     inflate,
     inflate_reference,
     inflation_cost,
+    keepout_costs,
     pad_footprint,
     static_layer,
     world_to_cell,
@@ -127,6 +131,7 @@ __all__ = [
     "StaticLayerParams",
     "ThetaStarPlanner",
     "apply_keepout",
+    "apply_keepout_costs",
     "astar",
     "astar_reference",
     "cell_to_world",
@@ -141,6 +146,7 @@ __all__ = [
     "inflate",
     "inflate_reference",
     "inflation_cost",
+    "keepout_costs",
     "line_of_sight",
     "load_costmap_params",
     "manhattan_distance",

@@ -44,12 +44,14 @@ __all__ = [
     "NO_INFORMATION",
     "Costmap",
     "apply_keepout",
+    "apply_keepout_costs",
     "cell_to_world",
     "footprint_from_radius",
     "footprint_radii",
     "inflate",
     "inflate_reference",
     "inflation_cost",
+    "keepout_costs",
     "pad_footprint",
     "static_layer",
     "world_to_cell",
@@ -245,9 +247,11 @@ def inflation_cost(distance: ArrayLike, inscribed_radius: float,
 
 
 def _inflation_table(resolution: float, inflation_radius: float, inscribed_radius: float,
-                     cost_scaling_factor: float) -> tuple[int, CostArray]:
+                     cost_scaling_factor: float, shape: tuple[int, ...] = ()
+                     ) -> tuple[int, CostArray]:
     """``(R, table)``: the radius in cells, ``ceil(inflation_radius / resolution)`` as Nav2's
-    ``cellDistance``, and the cost of every squared cell distance ``0 … R²``."""
+    ``cellDistance`` — no more than the diagonal of a grid of ``shape``, beyond which no cell
+    lies — and the cost of every squared cell distance ``0 … R²``."""
     if not (math.isfinite(resolution) and resolution > 0):
         raise ValueError(f"resolution must be a positive number of metres per cell; "
                          f"got {resolution!r}")
@@ -257,6 +261,8 @@ def _inflation_table(resolution: float, inflation_radius: float, inscribed_radiu
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a non-negative number; got {value!r}")
     cells = int(max(0.0, math.ceil(inflation_radius / resolution)))
+    if shape:
+        cells = min(cells, math.ceil(math.hypot(*shape)) + 1)
     squared = np.arange(cells * cells + 1, dtype=np.float64)
     return cells, inflation_cost(np.sqrt(squared) * resolution, inscribed_radius,
                                  cost_scaling_factor)
@@ -293,7 +299,7 @@ def inflate_reference(costs: ArrayLike, resolution: float, *, inscribed_radius: 
     """
     c = _check_costs(costs)
     cells, table = _inflation_table(resolution, inflation_radius, inscribed_radius,
-                                    cost_scaling_factor)
+                                    cost_scaling_factor, c.shape)
     source = c == LETHAL_OBSTACLE
     if inflate_around_unknown:
         source |= c == NO_INFORMATION
@@ -398,7 +404,7 @@ def inflate(costs: ArrayLike, resolution: float, *, inscribed_radius: float,
     """
     c = _check_costs(costs)
     cells, table = _inflation_table(resolution, inflation_radius, inscribed_radius,
-                                    cost_scaling_factor)
+                                    cost_scaling_factor, c.shape)
     if cells == 0:
         return c.copy()
     return _inflate_compiled(np.ascontiguousarray(c), cells, table, bool(inflate_unknown),
@@ -406,6 +412,38 @@ def inflate(costs: ArrayLike, resolution: float, *, inscribed_radius: float,
 
 
 # ------------------------------------------------------------------ keep-out filter
+
+def keepout_costs(mask: msgs.OccupancyGrid, shape: tuple[int, int], resolution: float,
+                  origin: tuple[float, float]) -> NDArray[np.int16]:
+    """The keep-out mask's cost for every cell of a grid (``shape``, ``resolution``,
+    ``origin``), shape ``(H, W)``: ``round(254 · v / 100)`` for the mask value ``v`` (0–100)
+    under the cell's centre, −1 where the mask is unknown or does not reach (no change).
+    A costmap that keeps its geometry computes this once (see :func:`apply_keepout`)."""
+    info = mask.info
+    values = np.asarray(mask.data).reshape(info.height, info.width)
+    rows, cols = np.indices(shape)
+    x = origin[0] + (cols + 0.5) * resolution
+    y = origin[1] + (rows + 0.5) * resolution
+    mx = np.floor((x - info.origin.position.x) / info.resolution).astype(np.int64)
+    my = np.floor((y - info.origin.position.y) / info.resolution).astype(np.int64)
+    on = (mx >= 0) & (my >= 0) & (mx < info.width) & (my < info.height)
+    v = np.full(shape, -1, dtype=np.int64)
+    v[on] = values[my[on], mx[on]]
+    known = v >= 0
+    cost = np.full(shape, -1, dtype=np.int16)
+    # std::round: halves away from zero (np.rint would round 190.5 to 190)
+    cost[known] = np.floor(v[known] * (LETHAL_OBSTACLE - FREE_SPACE) / 100.0 + 0.5)
+    return cost
+
+
+def apply_keepout_costs(costs: ArrayLike, mask_costs: NDArray[np.int16]) -> CostArray:
+    """``costs`` raised by a keep-out mask's per-cell costs (:func:`keepout_costs`): each
+    known mask cost is written where it exceeds the cell's own or the cell is unknown."""
+    c = _check_costs(costs).copy()
+    write = (mask_costs >= 0) & ((mask_costs > c) | (c == NO_INFORMATION))
+    c[write] = mask_costs[write]
+    return c
+
 
 def apply_keepout(costs: ArrayLike, mask: msgs.OccupancyGrid, resolution: float,
                   origin: tuple[float, float]) -> CostArray:
@@ -417,21 +455,5 @@ def apply_keepout(costs: ArrayLike, mask: msgs.OccupancyGrid, resolution: float,
     cost is written where it exceeds the cell's own or the cell is unknown. Filters run after
     the layers, so a keep-out zone is lethal but not inflated (as in Nav2).
     """
-    c = _check_costs(costs).copy()
-    info = mask.info
-    values = mask.data.reshape(info.height, info.width)
-    rows, cols = np.indices(c.shape)
-    x = origin[0] + (cols + 0.5) * resolution
-    y = origin[1] + (rows + 0.5) * resolution
-    mx = np.floor((x - info.origin.position.x) / info.resolution).astype(np.int64)
-    my = np.floor((y - info.origin.position.y) / info.resolution).astype(np.int64)
-    on = (mx >= 0) & (my >= 0) & (mx < info.width) & (my < info.height)
-    v = np.full(c.shape, -1, dtype=np.int64)
-    v[on] = values[my[on], mx[on]]
-    known = v >= 0
-    cost = np.zeros(c.shape, dtype=np.int64)
-    # std::round: halves away from zero (np.rint would round 190.5 to 190)
-    cost[known] = np.floor(v[known] * (LETHAL_OBSTACLE - FREE_SPACE) / 100.0 + 0.5)
-    write = known & ((cost > c) | (c == NO_INFORMATION))
-    c[write] = cost[write]
-    return c
+    c = _check_costs(costs)
+    return apply_keepout_costs(c, keepout_costs(mask, c.shape, resolution, origin))

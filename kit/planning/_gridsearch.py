@@ -93,10 +93,11 @@ def _pop(hf: Any, hh: Any, hn: Any, pos: Any, size: int) -> int:
 @njit(cache=True)
 def _astar_compiled(free: Any, factor: Any, uniform: bool, stride: int, start: int, goal: int,
                     moves: int, corner_cutting: bool, heuristic: int, work: Any,
-                    query: int) -> tuple[bool, int]:
+                    query: int, limit: int) -> tuple[bool, int]:
     """A* (``heuristic`` 1 octile, 2 Manhattan) or Dijkstra (``heuristic`` 0) on the padded
     grid; returns ``(found, number of cells expanded)``, the expansion order in ``work[5]``.
-    ``uniform``: every factor is 1 (skip reading them)."""
+    ``uniform``: every factor is 1 (skip reading them). At most ``limit`` cells are expanded
+    (negative: no limit); a ``goal`` of −1 expands every reachable cell."""
     mark, parent, hn, pos, order = work[0], work[1], work[2], work[3], work[5]
     g, hf, hh = work[6], work[7], work[8]
     is_open, is_closed = 2 * query, 2 * query + 1
@@ -115,6 +116,8 @@ def _astar_compiled(free: Any, factor: Any, uniform: bool, stride: int, start: i
         expanded += 1
         if u == goal:
             return True, expanded
+        if expanded == limit:
+            return False, expanded
         row, col = u // stride, u % stride
         g_u = g[u]
         for k in range(moves):
@@ -265,6 +268,9 @@ class GridSearch:
         Weight of the costmap in a move's cost (Smac 2-D's parameter; 0 plans by length).
     allow_unknown
         Plan through unknown cells (cost 255).
+    max_iterations
+        At most this many cells expanded by A* and Dijkstra (Smac's ``max_iterations``); a
+        search that stops there finds no path. ``None``: no limit.
 
     >>> search = GridSearch(np.zeros((3, 4), np.uint8))
     >>> r = search.astar((0, 0), (2, 3))
@@ -273,7 +279,8 @@ class GridSearch:
     """
 
     def __init__(self, costs: ArrayLike, *, connectivity: int = 8, corner_cutting: bool = False,
-                 cost_travel_multiplier: float = 2.0, allow_unknown: bool = True) -> None:
+                 cost_travel_multiplier: float = 2.0, allow_unknown: bool = True,
+                 max_iterations: int | None = None) -> None:
         self.costs = _check_costs(costs).copy()
         self.costs.flags.writeable = False
         _connectivity(connectivity)
@@ -284,6 +291,12 @@ class GridSearch:
         self.corner_cutting = bool(corner_cutting)
         self.cost_travel_multiplier = float(cost_travel_multiplier)
         self.allow_unknown = bool(allow_unknown)
+        if max_iterations is not None and (isinstance(max_iterations, bool) or
+                                           not isinstance(max_iterations, int) or
+                                           max_iterations < 1):
+            raise ValueError(f"max_iterations must be a positive whole number or None; got "
+                             f"{max_iterations!r}")
+        self.max_iterations = max_iterations
         height, width = self.costs.shape
         self._stride = width + 2
         c = self.costs.astype(np.float64)
@@ -321,8 +334,11 @@ class GridSearch:
         _, parent, _, _, path, order = self._ints
         expanded_order = order[:expanded].copy()
         if not found:
+            reason = (f"no path from {start} to {goal} within max_iterations = "
+                      f"{self.max_iterations} cells expanded"
+                      if expanded == self.max_iterations else _no_path(start, goal, expanded))
             return SearchResult(np.zeros((0, 2), np.int64), math.inf, math.inf,
-                                _no_path(start, goal, expanded), expanded_order, self._stride, 1)
+                                reason, expanded_order, self._stride, 1)
         t = self._index(goal)
         n = _trace(parent, self._index(start), t, path)
         rc = self._cells(path[:n][::-1])
@@ -337,8 +353,25 @@ class GridSearch:
             self._free, self._factor, self._uniform, self._stride, self._index(s),
             self._index(t), self.connectivity, self.corner_cutting, heuristic,
             self._ints + self._floats,
-            self._query)
+            self._query, -1 if self.max_iterations is None else self.max_iterations)
         return self._finish(s, t, found, expanded)
+
+    def reachable(self, start: Cell) -> NDArray[np.bool_]:
+        """``(height, width)``: the cells a path from ``start`` can reach (a Dijkstra over
+        every cell it can, whatever ``max_iterations``)."""
+        s = _check_cell(self.costs, start, "start", self.allow_unknown)
+        self._query += 1
+        if 2 * self._query + 1 >= np.iinfo(np.int32).max:
+            self._ints[0][:] = 0
+            self._query = 1
+        _, expanded = _astar_compiled(
+            self._free, self._factor, self._uniform, self._stride, self._index(s), -1,
+            self.connectivity, self.corner_cutting, 0, self._ints + self._floats,
+            self._query, -1)
+        out = np.zeros(self.costs.shape, dtype=bool)
+        cells = self._cells(self._ints[5][:expanded])
+        out[cells[:, 0], cells[:, 1]] = True
+        return out
 
     def astar(self, start: Cell, goal: Cell) -> SearchResult:
         """A* from ``start`` to ``goal`` (``(row, col)`` cells)."""

@@ -442,10 +442,12 @@ class Slam:
 
     def occupancy_map(self, resolution: float = 0.05,
                       model: mapping.InverseSensorModel | None = None,
-                      progress: Callable[[int], object] | None = None
+                      progress: Callable[[int], object] | None = None,
+                      update: Callable[..., ArrayLike] | None = None
                       ) -> mapping.OccupancyGridMap:
-        """The map rebuilt from every node's scan (de-skewed) at its optimised pose."""
-        grid = mapping.OccupancyGridMap(resolution, model=model)
+        """The map rebuilt from every node's scan (de-skewed) at its optimised pose
+        (``update``: see :class:`kit.mapping.OccupancyGridMap`)."""
+        grid = mapping.OccupancyGridMap(resolution, model=model, update=update)
         poses = self.graph.poses
         for k, node in enumerate(self.nodes):
             if node.scan is not None:

@@ -32,7 +32,7 @@ import gzip
 import itertools
 import math
 from collections import deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -460,8 +460,8 @@ class PoseGraph:
         return new
 
     def optimize(self, method: str = "gn", max_iterations: int = 50,
-                 tolerance: float = 1e-9, initial_lambda: float = 1e-4
-                 ) -> OptimizationResult:
+                 tolerance: float = 1e-9, initial_lambda: float = 1e-4,
+                 step: GaussNewtonStep | None = None) -> OptimizationResult:
         """Minimise ``Σ ρ(eᵀΩe)`` over the free nodes' poses; updates :attr:`poses`.
 
         Parameters
@@ -474,11 +474,24 @@ class PoseGraph:
             Linearisations at most.
         tolerance
             Stop when the cost falls by less than this fraction in an iteration.
+        step
+            A Gauss–Newton step written elsewhere (a lab's), used for each iteration in
+            place of the sparse solve: ``step(poses (N, 3), edges) -> new poses (N, 3)``
+            with ``edges`` a list of ``(i, j, z (3,), Ω (3, 3))`` and node 0 held fixed.
+            Robust kernels enter as iteratively reweighted least squares: each edge's
+            ``Ω`` is handed over scaled by its kernel weight ``ρ'(eᵀΩe)`` at the current
+            poses (what the built-in step does too). Only with ``method="gn"`` and node 0
+            the one fixed node.
         """
         if method not in ("gn", "lm"):
             raise ValueError(f"method must be 'gn' or 'lm'; got {method!r}")
         if max_iterations < 1:
             raise ValueError(f"max_iterations must be at least 1; got {max_iterations}")
+        if step is not None:
+            if method != "gn" or self.fixed != {0}:
+                raise ValueError("a step function needs method 'gn' and node 0 as the one "
+                                 "fixed node")
+            return self._optimize_with(step, max_iterations, tolerance)
         solver = self._cache.setdefault("solver", _Cholesky())
         poses = self.poses
         H, g, cost = self.linearize(poses)
@@ -515,6 +528,40 @@ class PoseGraph:
                 break
         self.poses = poses
         return OptimizationResult(it, initial, cost, converged, tuple(history))
+
+
+    def _optimize_with(self, step: GaussNewtonStep, max_iterations: int, tolerance: float
+                       ) -> OptimizationResult:
+        """:meth:`optimize` with ``step`` making each Gauss–Newton iteration."""
+        i, j, z, omega = self.edges()
+        if len(i) == 0:
+            raise PoseGraphError("the graph has no edges to optimise")
+        poses = self.poses
+        cost = initial = self.cost(poses)
+        history, converged, it = [cost], False, 0
+        for it in range(1, max_iterations + 1):  # noqa: B007 - it is reported
+            e = edge_errors(poses, i, j, z)
+            _, w = self._robust(np.einsum("ei,eij,ej->e", e, omega, e))
+            edges = [(int(a), int(b), z[k].copy(), omega[k] * w[k])
+                     for k, (a, b) in enumerate(zip(i, j, strict=True))]
+            new = geometry.check_pose(step(poses.copy(), edges), "the step's poses")
+            if new.shape != poses.shape:
+                raise ValueError(f"the step must return poses of shape {poses.shape}; got "
+                                 f"{new.shape}")
+            new_cost = self.cost(new)
+            decrease, moved = cost - new_cost, float(np.max(np.abs(new - poses)))
+            poses, cost = new, new_cost
+            history.append(cost)
+            if abs(decrease) <= tolerance * max(cost, 1e-300) or moved < 1e-12:
+                converged = True
+                break
+        self.poses = poses
+        return OptimizationResult(it, initial, cost, converged, tuple(history))
+
+
+GaussNewtonStep = Callable[[FloatArray, list[tuple[int, int, FloatArray, FloatArray]]], ArrayLike]
+"""``step(poses, edges) -> poses``: one Gauss–Newton step of a pose graph (see
+:meth:`PoseGraph.optimize`)."""
 
 
 def _diag_upper(values: FloatArray, like: Any) -> Any:

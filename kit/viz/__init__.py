@@ -13,13 +13,14 @@ from kit.viz._control import plot_signals, plot_step_response
 from kit.viz._drivers import plot_lidar_turn
 from kit.viz._estimation import plot_headings, plot_kalman_track, plot_odometry_drift
 from kit.viz._grid import plot_grid, plot_map_trajectory, plot_scan
-from kit.viz._localization import animate_particles, plot_particles
+from kit.viz._localization import animate_particles, animation_html, plot_particles
 from kit.viz._navigation import plot_rollouts
 from kit.viz._planning import costmap_colors, plot_costmap, plot_path, plot_search
 from kit.viz._robot import plot_icc, plot_robot, plot_trajectories, plot_wheel_commands
 
 __all__ = [
     "animate_particles",
+    "animation_html",
     "costmap_colors",
     "plot_costmap",
     "plot_grid",

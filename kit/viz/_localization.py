@@ -13,7 +13,7 @@ from kit import msgs
 from kit.viz._base import axes as _axes
 from kit.viz._grid import plot_grid
 
-__all__ = ["animate_particles", "plot_particles"]
+__all__ = ["animate_particles", "animation_html", "plot_particles"]
 
 
 def plot_particles(poses: ArrayLike, weights: ArrayLike | None = None, ax: Axes | None = None,
@@ -40,7 +40,7 @@ def animate_particles(grid: msgs.OccupancyGrid, clouds: Sequence[ArrayLike],
                       interval_ms: int = 200) -> Any:
     """A ``FuncAnimation`` of the particle ``clouds`` (one ``(N, 3)`` array per frame) over
     ``grid``, with the true pose and the estimate of each frame (``(F, 3)``) when given.
-    In a notebook: ``IPython.display.HTML(animation.to_jshtml())``."""
+    In a notebook: ``IPython.display.HTML(animation_html(animation))``."""
     import matplotlib.pyplot as plt
     from matplotlib.animation import FuncAnimation
 
@@ -66,3 +66,33 @@ def animate_particles(grid: msgs.OccupancyGrid, clouds: Sequence[ArrayLike],
     animation = FuncAnimation(fig, draw, frames=len(clouds), interval=interval_ms, blit=False)
     plt.close(fig)
     return animation
+
+
+def animation_html(animation: Any, desc: str = "drawing the animation") -> str:
+    """``animation.to_jshtml()`` with a progress bar over its frames (:mod:`kit.progress`):
+    drawing a few hundred frames takes a while."""
+    import tempfile
+    from pathlib import Path
+
+    from matplotlib.animation import HTMLWriter
+
+    from kit.progress import progress
+
+    ticks: list[Any] = []
+
+    def advance(frame: int, total: int | None) -> None:
+        if not ticks:
+            count = int(total or 0)
+            ticks.append(iter(progress(range(count), desc=desc, total=count, unit="frame")))
+        next(ticks[0], None)
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder, "animation.html")
+        fps = max(1, round(1000.0 / float(getattr(animation, "_interval", 200))))
+        animation.save(str(path), writer=HTMLWriter(fps=fps, embed_frames=True,
+                                                    default_mode="loop"),
+                       progress_callback=advance)
+        if ticks:
+            for _ in ticks[0]:
+                pass
+        return path.read_text()

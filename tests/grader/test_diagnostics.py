@@ -499,6 +499,9 @@ def _points06(r, amin, inc, lo, hi, T, mode="right"):
         return np.column_stack([c * qx + s * qy, -s * qx + c * qy])
     if mode == "translate":
         return np.column_stack([px + x, py + y])
+    if mode == "transposed":       # [[c, s], [-s, c]] typed for R
+        c, s = math.cos(th), math.sin(th)
+        return np.column_stack([x + c * px + s * py, y - s * px + c * py])
     c, s = math.cos(th), math.sin(th)
     return np.column_stack([x + c * px - s * py, y + s * px + c * py])
 
@@ -511,34 +514,54 @@ def _deskew06(r, angle, beam, ref, mode="right"):
     c, s = math.cos(first[2]), math.sin(first[2])
     w = np.array([first[0] + c * p[0] - s * p[1], first[1] + s * p[0] + c * p[1]])
     c, s = math.cos(second[2]), math.sin(second[2])
+    if mode == "negate":           # the inverse pose written as (-x, -y, -θ)
+        return np.array([c * w[0] + s * w[1] - second[0], -s * w[0] + c * w[1] - second[1]])
     d = w - np.array(second[:2])
+    if mode == "R":                # the inverse rotates by +θ_ref
+        return np.array([c * d[0] - s * d[1], s * d[0] + c * d[1]])
     return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+
+
+def _exclusive06(r, lo, hi):
+    r = np.asarray(r, float)
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(r) & (r > lo) & (r < hi)
 
 
 LAB06 = {
     "beam_angles": [
-        ("linspace over n + 1 points",
+        ("linspace up to angle_min + n · angle_increment",
          lambda amin, inc, n: np.linspace(amin, amin + n * inc, n)),
+        ("beams counted from 1", lambda amin, inc, n: np.array([amin + (i + 1) * inc
+                                                                for i in range(n)])),
         ("degrees", lambda amin, inc, n: np.degrees(amin + inc * np.arange(n))),
     ],
     "valid_returns": [
         ("range limits ignored", lambda r, lo, hi: np.isfinite(np.asarray(r, float))),
         ("inf taken for a return", lambda r, lo, hi: np.nan_to_num(np.asarray(r, float)) > 0),
+        ("the limits excluded", _exclusive06),
     ],
     "scan_to_points": [
         ("points left in the laser's frame", lambda *a: _points06(*a, mode="laser")),
         ("the mounting applied inverted", lambda *a: _points06(*a, mode="inverse")),
         ("the mounting's rotation ignored", lambda *a: _points06(*a, mode="translate")),
+        ("Rᵀ in place of R", lambda *a: _points06(*a, mode="transposed")),
     ],
     "deskew_beam": [
         ("not de-skewed", lambda *a: _deskew06(*a, mode="none")),
         ("the two poses swapped", lambda *a: _deskew06(*a, mode="swap")),
+        ("R in place of Rᵀ in the inverse", lambda *a: _deskew06(*a, mode="R")),
+        ("the inverse taken as (−x, −y, −θ)", lambda *a: _deskew06(*a, mode="negate")),
     ],
     "depth_to_range": [
         ("depth along the optical axis taken as the range",
          lambda z, u, fx, cx: np.asarray(z, float) * np.ones_like(np.asarray(u, float))),
         ("only the sideways offset",
          lambda z, u, fx, cx: np.abs((np.asarray(u, float) - cx) * np.asarray(z, float) / fx)),
+        ("z · cos α", lambda z, u, fx, cx: np.asarray(z, float) * np.cos(
+            np.arctan((np.asarray(u, float) - cx) / fx))),
+        ("the offset (u − cx) / fx without z", lambda z, u, fx, cx: np.sqrt(
+            ((np.asarray(u, float) - cx) / fx) ** 2 + np.asarray(z, float) ** 2)),
     ],
 }
 
@@ -560,12 +583,12 @@ def _move07(belief, shift, under, exact, over, backwards=False, noise=True):
             + over * np.roll(b, sign * (shift + 1)))
 
 
-def _control07(a, b, degrees=False, swap=False, wrap=True):
+def _control07(a, b, degrees=False, swap=False, wrap=True, spot=True):
     dx, dy = b[0] - a[0], b[1] - a[1]
     trans = math.hypot(dx, dy)
     w = (lambda t: (t + math.pi) % (2 * math.pi) - math.pi) if wrap else (lambda t: t)
     heading = math.atan2(dx, dy) if swap else math.atan2(dy, dx)
-    rot1 = 0.0 if trans < 0.01 else w(heading - a[2])
+    rot1 = 0.0 if trans < 0.01 and spot else w(heading - a[2])
     rot2 = w(b[2] - a[2] - rot1)
     if degrees:
         return np.array([math.degrees(rot1), trans, math.degrees(rot2)])
@@ -573,7 +596,7 @@ def _control07(a, b, degrees=False, swap=False, wrap=True):
 
 
 def _loglik07(poses, ends, dist, res, origin, z_hit, z_rand, sigma, rmax, product=False,
-              rotate=True):
+              rotate=True, clip=False, swap=False):
     p, e, d = np.asarray(poses, float), np.asarray(ends, float), np.asarray(dist, float)
     out = []
     for x, y, th in p:
@@ -583,6 +606,10 @@ def _loglik07(poses, ends, dist, res, origin, z_hit, z_rand, sigma, rmax, produc
             px, py = x + math.cos(th) * ex - math.sin(th) * ey, y + math.sin(th) * ex + \
                 math.cos(th) * ey
             r, c = math.floor((py - origin[1]) / res), math.floor((px - origin[0]) / res)
+            if swap:
+                r, c = c, r
+            if clip:                  # the nearest cell of the grid's edge
+                r, c = min(max(r, 0), d.shape[0] - 1), min(max(c, 0), d.shape[1] - 1)
             dd = d[r, c] if 0 <= r < d.shape[0] and 0 <= c < d.shape[1] else d.max()
             pz.append(z_hit * math.exp(-dd * dd / (2 * sigma * sigma)) + z_rand / rmax)
         if product:
@@ -593,11 +620,26 @@ def _loglik07(poses, ends, dist, res, origin, z_hit, z_rand, sigma, rmax, produc
     return np.array(out)
 
 
-def _normalise07(lw, shift=True, divide=True):
+def _normalise07(lw, shift=True, divide=True, by_min=False):
     lw = np.asarray(lw, float)
     with np.errstate(all="ignore"):
-        w = np.exp(lw - lw.max()) if shift else np.exp(lw)
+        w = np.exp(lw - (lw.min() if by_min else lw.max())) if shift else np.exp(lw)
         return w / w.sum() if divide else w
+
+
+def _low_variance07(w, n, r, normalise=True, side="right"):
+    """The textbook's loop (table 4.4), as a student writes it; the lab's convention
+    c_{i-1} <= u < c_i moves on while u >= c (the book's "while U > c" is side="left")."""
+    w = np.asarray(w, float)
+    w = w / w.sum() if normalise else w
+    out, i, c = [], 0, w[0]
+    for m in range(n):
+        u = r + m / n
+        while (u >= c if side == "right" else u > c) and i < len(w) - 1:
+            i += 1
+            c += w[i]
+        out.append(i)
+    return np.array(out)
 
 
 LAB07 = {
@@ -613,14 +655,19 @@ LAB07 = {
         ("degrees", lambda a, b: _control07(a, b, degrees=True)),
         ("atan2(dx, dy)", lambda a, b: _control07(a, b, swap=True)),
         ("rotations not wrapped", lambda a, b: _control07(a, b, wrap=False)),
+        ("a move under 1 cm not taken as a turn on the spot",
+         lambda a, b: _control07(a, b, spot=False)),
     ],
     "log_likelihoods": [
         ("likelihoods multiplied until they underflow", lambda *a: _loglik07(*a, product=True)),
         ("beam angles in the wrong frame", lambda *a: _loglik07(*a, rotate=False)),
+        ("off-grid endpoints read from the edge cell", lambda *a: _loglik07(*a, clip=True)),
+        ("row and column swapped", lambda *a: _loglik07(*a, swap=True)),
     ],
     "normalize_log_weights": [
         ("exp of the log-weights as they are", lambda lw: _normalise07(lw, shift=False)),
         ("weights not normalised", lambda lw: _normalise07(lw, divide=False)),
+        ("the smallest log-weight subtracted", lambda lw: _normalise07(lw, by_min=True)),
     ],
     "should_resample": [
         ("resampling every step", lambda w, t: True),
@@ -628,17 +675,20 @@ LAB07 = {
          lambda w, t: bool(1 / np.sum(np.asarray(w) ** 2) < t)),
     ],
     "low_variance_resample": [
-        ("a pointer on a boundary taken to the left", lambda w, n, r: np.searchsorted(
-            np.cumsum(np.asarray(w) / np.sum(w)), r + np.arange(n) / n, side="left")),
+        ("a pointer on a boundary taken to the left",
+         lambda w, n, r: _low_variance07(w, n, r, side="left")),
+        ("weights not normalised first", lambda w, n, r: _low_variance07(w, n, r,
+                                                                          normalise=False)),
     ],
 }
 
 
 # ------------------------------------------------------------------ lab 08 as students err
 
-def _ends(ranges, angle_min, inc, pose, rotate=True, keep_inf=False, in_laser=False):
+def _ends(ranges, angle_min, inc, pose, rotate=True, keep_inf=False, in_laser=False,
+          transposed=False, first=0):
     r = np.asarray(ranges, float)
-    a = angle_min + inc * np.arange(len(r))
+    a = angle_min + inc * np.arange(first, first + len(r))
     if not keep_inf:
         a, r = a[np.isfinite(r)], r[np.isfinite(r)]
     with np.errstate(invalid="ignore"):
@@ -646,8 +696,10 @@ def _ends(ranges, angle_min, inc, pose, rotate=True, keep_inf=False, in_laser=Fa
         if in_laser:
             return np.column_stack([px, py])
         th = pose[2] if rotate else 0.0
-        return np.column_stack([pose[0] + math.cos(th) * px - math.sin(th) * py,
-                                pose[1] + math.sin(th) * px + math.cos(th) * py])
+        c, s = math.cos(th), math.sin(th)
+        if transposed:
+            s = -s
+        return np.column_stack([pose[0] + c * px - s * py, pose[1] + s * px + c * py])
 
 
 def _rel(a, b):
@@ -656,8 +708,14 @@ def _rel(a, b):
     return np.array([c * dx + s * dy, -s * dx + c * dy, b[2] - a[2]])
 
 
-def _edge(xi, xj, z, wrap=True):
-    d = _rel(np.asarray(z, float), _rel(np.asarray(xi, float), np.asarray(xj, float)))
+def _edge(xi, xj, z, wrap=True, swap=False, R_i=False):
+    xi, xj, z = (np.asarray(v, float) for v in (xi, xj, z))
+    seen = _rel(xi, xj)
+    if R_i:                        # rotated by +θ_i into node i's frame
+        c, s = math.cos(xi[2]), math.sin(xi[2])
+        dx, dy = xj[0] - xi[0], xj[1] - xi[1]
+        seen = np.array([c * dx - s * dy, s * dx + c * dy, xj[2] - xi[2]])
+    d = _rel(seen, z) if swap else _rel(z, seen)
     if wrap:
         d[2] = (d[2] + math.pi) % (2 * math.pi) - math.pi
     return d
@@ -674,7 +732,7 @@ def _jac(xi, xj, z):
     return A, B
 
 
-def _gn(poses, edges, invert=False, uphill=False):
+def _gn(poses, edges, invert=False, uphill=False, wrap=True, fix=True):
     x = np.asarray(poses, float)
     n = len(x)
     H, b = np.zeros((3 * n, 3 * n)), np.zeros(3 * n)
@@ -686,9 +744,13 @@ def _gn(poses, edges, invert=False, uphill=False):
             for q, Q in ((i, A), (j, B)):
                 H[3 * p:3 * p + 3, 3 * q:3 * q + 3] += P.T @ om @ Q
     dx = np.zeros(3 * n)
-    dx[3:] = np.linalg.solve(H[3:, 3:], (b if uphill else -b)[3:])
+    if fix:
+        dx[3:] = np.linalg.solve(H[3:, 3:], (b if uphill else -b)[3:])
+    else:                          # no node held: the least-squares step of all of them
+        dx = np.linalg.lstsq(H, -b, rcond=None)[0]
     new = x + dx.reshape(n, 3)
-    new[:, 2] = (new[:, 2] + math.pi) % (2 * math.pi) - math.pi
+    if wrap:
+        new[:, 2] = (new[:, 2] + math.pi) % (2 * math.pi) - math.pi
     return new
 
 
@@ -703,11 +765,15 @@ LAB08 = {
         ("the laser's heading ignored", lambda *a: _ends(*a, rotate=False)),
         ("points left in the laser's frame", lambda *a: _ends(*a, in_laser=True)),
         ("inf ranges made into points", lambda *a: _ends(*a, keep_inf=True)),
+        ("Rᵀ in place of R", lambda *a: _ends(*a, transposed=True)),
+        ("the first beam at angle_min + angle_increment", lambda *a: _ends(*a, first=1)),
     ],
     "edge_error": [
         ("angle residual not wrapped", lambda xi, xj, z: _edge(xi, xj, z, wrap=False)),
         ("poses subtracted in the world frame",
          lambda xi, xj, z: np.asarray(xj, float) - np.asarray(xi, float) - np.asarray(z, float)),
+        ("the other transform inverted", lambda xi, xj, z: _edge(xi, xj, z, swap=True)),
+        ("R(θ_i) in place of its transpose", lambda xi, xj, z: _edge(xi, xj, z, R_i=True)),
     ],
     "edge_jacobians": [
         ("Jacobians transposed", lambda *a: tuple(m.T for m in _jac(*a))),
@@ -716,6 +782,8 @@ LAB08 = {
     "gauss_newton_step": [
         ("information matrix inverted", lambda p, e: _gn(p, e, invert=True)),
         ("the step taken uphill", lambda p, e: _gn(p, e, uphill=True)),
+        ("angles not wrapped after the step", lambda p, e: _gn(p, e, wrap=False)),
+        ("node 0 not held fixed", lambda p, e: _gn(p, e, fix=False)),
     ],
 }
 
@@ -1274,20 +1342,259 @@ def test_each_classic_mistake_loses_points_for_every_student(lab, function, mist
                         f"cases miss {mistake!r}, e.g. {spared[:3]}")
 
 
+# ------------------------------------------------------------------ honest variants keep full marks
+# Another correct way to write each exercise, as a student might: every one must pass the
+# public cases and every student's hidden cases, whatever their seed drew (boundaries exact
+# in binary where a rule's edge is tested, no case on a wrap-around's ±π itself).
+
+def _wrap_mod(a):
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def _homogeneous(p):
+    c, s = math.cos(p[2]), math.sin(p[2])
+    return np.array([[c, -s, p[0]], [s, c, p[1]], [0.0, 0.0, 1.0]])
+
+
+def _points_complex(r, amin, inc, lo, hi, T):
+    r = np.asarray(r, float)
+    ok = _ok06(r, lo, hi)
+    a = np.array([amin + i * inc for i in range(len(r))])[ok]
+    z = r[ok] * np.exp(1j * (a + T[2])) + complex(T[0], T[1])
+    return np.column_stack([z.real, z.imag])
+
+
+def _points_matrix(r, amin, inc, lo, hi, T):
+    r = np.asarray(r, float)
+    a = np.linspace(amin, amin + (len(r) - 1) * inc, len(r))
+    with np.errstate(invalid="ignore"):
+        ok = ~np.isnan(r) & ~np.isinf(r) & (r >= lo) & (r <= hi)
+    local = np.vstack([r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok]), np.ones(ok.sum())])
+    return (_homogeneous(T) @ local)[:2].T
+
+
+def _deskew_relative(r, angle, beam, ref):
+    from kit import geometry
+
+    return geometry.transform_points(geometry.relative(ref, beam),
+                                     [[r * math.cos(angle), r * math.sin(angle)]])[0]
+
+
+def _deskew_matrices(r, angle, beam, ref):
+    p = np.array([r * math.cos(angle), r * math.sin(angle), 1.0])
+    return (np.linalg.inv(_homogeneous(ref)) @ _homogeneous(beam) @ p)[:2]
+
+
+def _move_loop(belief, shift, under, exact, over):
+    n = len(belief)
+    out = [0.0] * n
+    for i, b in enumerate(belief):
+        for k, p in ((-1, under), (0, exact), (1, over)):
+            out[(i + shift + k) % n] += p * b
+    return np.array(out)
+
+
+def _control_atan_wrap(a, b):
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    trans = math.sqrt(dx * dx + dy * dy)
+    rot1 = 0.0 if trans < 0.01 else math.atan2(dy, dx) - a[2]
+    rot1 = math.atan2(math.sin(rot1), math.cos(rot1))
+    rot2 = b[2] - a[2] - rot1
+    return np.array([rot1, trans, math.atan2(math.sin(rot2), math.cos(rot2))])
+
+
+def _control_complex(a, b):
+    step = complex(b[0] - a[0], b[1] - a[1])
+    rot1 = 0.0 if abs(step) < 0.01 else float(np.angle(step * np.exp(-1j * a[2])))
+    return np.array([rot1, abs(step), float(np.angle(np.exp(1j * (b[2] - a[2] - rot1))))])
+
+
+def _loglik_flat(poses, ends, dist, res, origin, z_hit, z_rand, sigma, rmax):
+    p, e, d = np.asarray(poses, float), np.asarray(ends, float), np.asarray(dist, float)
+    h, w = d.shape
+    out = np.empty(len(p))
+    for k, (x, y, th) in enumerate(p):
+        c, s = math.cos(th), math.sin(th)
+        col = np.floor((x + c * e[:, 0] - s * e[:, 1] - origin[0]) / res).astype(int)
+        row = np.floor((y + s * e[:, 0] + c * e[:, 1] - origin[1]) / res).astype(int)
+        inside = (row >= 0) & (row < h) & (col >= 0) & (col < w)
+        dd = np.where(inside, np.take(d, np.where(inside, row * w + col, 0)), d.max())
+        out[k] = np.log(z_hit * np.exp(-dd ** 2 / (2 * sigma ** 2)) + z_rand / rmax).sum()
+    return out
+
+
+def _lv_searchsorted(w, n, r):
+    c = np.cumsum(np.asarray(w, float)) / np.sum(w)
+    c[-1] = 1.0
+    return np.searchsorted(c, [r + m / n for m in range(n)], side="right")
+
+
+def _lv_stepping(w, n, r):
+    w = np.asarray(w, float)
+    c, i, u, out = w[0] / w.sum(), 0, r, []
+    for _ in range(n):
+        while u >= c and i < len(w) - 1:
+            i += 1
+            c += w[i] / w.sum()
+        out.append(i)
+        u += 1.0 / n
+    return np.array(out)
+
+
+def _edge_formula(xi, xj, z):
+    ci, si, cz, sz = (math.cos(xi[2]), math.sin(xi[2]), math.cos(z[2]), math.sin(z[2]))
+    dx, dy = xj[0] - xi[0], xj[1] - xi[1]
+    a, b = ci * dx + si * dy - z[0], -si * dx + ci * dy - z[1]
+    return np.array([cz * a + sz * b, -sz * a + cz * b, _wrap_mod(xj[2] - xi[2] - z[2])])
+
+
+def _edge_homogeneous(xi, xj, z):
+    E = np.linalg.inv(_homogeneous(z)) @ np.linalg.inv(_homogeneous(xi)) @ _homogeneous(xj)
+    return np.array([E[0, 2], E[1, 2], math.atan2(E[1, 0], E[0, 0])])
+
+
+def _jacobians_rotations(xi, xj, z):
+    def rot(t):
+        return np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
+
+    Ri, Rz = rot(xi[2]), rot(z[2])
+    dRi = np.array([[-math.sin(xi[2]), -math.cos(xi[2])], [math.cos(xi[2]), -math.sin(xi[2])]])
+    t = np.asarray(xj[:2], float) - np.asarray(xi[:2], float)
+    A, B = -np.eye(3), np.eye(3)
+    A[:2, :2], B[:2, :2] = -Rz.T @ Ri.T, Rz.T @ Ri.T
+    A[:2, 2] = Rz.T @ dRi.T @ t
+    return A, B
+
+
+def _gn_delete(poses, edges, edge=_edge_formula, jac=_jacobians_rotations):
+    x = np.asarray(poses, float)
+    n = len(x)
+    H, b = np.zeros((3 * n, 3 * n)), np.zeros(3 * n)
+    for i, j, z, om in edges:
+        e, (A, B) = edge(x[i], x[j], z), jac(x[i], x[j], z)
+        J = np.zeros((3, 3 * n))
+        J[:, 3 * i:3 * i + 3], J[:, 3 * j:3 * j + 3] = A, B
+        H += J.T @ om @ J
+        b += J.T @ om @ e
+    keep = np.arange(3, 3 * n)
+    dx = np.concatenate([np.zeros(3), np.linalg.lstsq(H[np.ix_(keep, keep)], -b[keep],
+                                                      rcond=None)[0]])
+    new = x + dx.reshape(n, 3)
+    new[:, 2] = np.arctan2(np.sin(new[:, 2]), np.cos(new[:, 2]))
+    return new
+
+
+HONEST.update({
+    "lab06": {
+        "beam_angles": [
+            ("linspace to the last beam", lambda amin, inc, n: np.linspace(
+                amin, amin + (n - 1) * inc, n)),
+            ("linspace without its end point", lambda amin, inc, n: np.linspace(
+                amin, amin + n * inc, n, endpoint=False)),
+            ("a list, beam by beam", lambda amin, inc, n: [amin + i * inc for i in range(n)]),
+        ],
+        "valid_returns": [
+            ("comparisons alone (NaN and ±inf compare false or beyond a limit)",
+             lambda r, lo, hi: _ok06(r, lo, hi) & (np.nan_to_num(np.asarray(r, float),
+                                                                 nan=-1.0) >= lo)),
+            ("one reading at a time", lambda r, lo, hi: [math.isfinite(v) and lo <= v <= hi
+                                                        for v in r]),
+        ],
+        "scan_to_points": [
+            ("complex numbers", _points_complex),
+            ("a homogeneous transform", _points_matrix),
+        ],
+        "deskew_beam": [
+            ("the relative pose T(t_ref)⁻¹ T(t_i) first", _deskew_relative),
+            ("homogeneous matrices", _deskew_matrices),
+        ],
+        "depth_to_range": [
+            ("z / cos α", lambda z, u, fx, cx: np.asarray(z, float) / np.cos(
+                np.arctan2(np.asarray(u, float) - cx, fx))),
+            ("z √(1 + tan² α)", lambda z, u, fx, cx: np.asarray(z, float) * np.sqrt(
+                1 + ((np.asarray(u, float) - cx) / fx) ** 2)),
+        ],
+    },
+    "lab07": {
+        "sense": [
+            ("np.where over the world", lambda belief, world, z, hit, miss: (
+                b := np.asarray(belief) * np.where(np.array(world) == z, hit, miss)) / b.sum()),
+        ],
+        "move": [
+            ("a loop over the cells", _move_loop),
+        ],
+        "odometry_control": [
+            ("atan2(sin, cos) to wrap", _control_atan_wrap),
+            ("complex numbers", _control_complex),
+        ],
+        "log_likelihoods": [
+            ("the textbook's loops", _loglik07),
+            ("one particle at a time, flat indices", _loglik_flat),
+        ],
+        "normalize_log_weights": [
+            ("scipy's softmax", lambda lw: __import__("scipy.special").special.softmax(lw)),
+            ("exp(l − logsumexp(l))", lambda lw: np.exp(
+                np.asarray(lw) - __import__("scipy.special").special.logsumexp(lw))),
+        ],
+        "should_resample": [
+            ("N_eff by a dot product", lambda w, t: 1 / np.dot(w, w) < t * len(w)),
+            ("(Σw)² / Σw², not >=", lambda w, t: not (np.sum(w) ** 2 / np.sum(np.square(w))
+                                                       >= t * np.size(w))),
+        ],
+        "low_variance_resample": [
+            ("the book's loop, moving on while u >= c", _low_variance07),
+            ("searchsorted on the normalised cumulative sum", _lv_searchsorted),
+            ("a pointer stepped by 1/n", _lv_stepping),
+        ],
+    },
+    "lab08": {
+        "update_log_odds": [
+            ("minimum of maximum", lambda odds, c, lo, hi: np.minimum(
+                np.maximum(np.add(odds, c), lo), hi)),
+            ("one cell at a time", lambda odds, c, lo, hi: np.array(
+                [min(max(a + b, lo), hi) for a, b in zip(odds, c, strict=True)])),
+        ],
+        "beam_endpoints": [
+            ("a loop over the finite beams", lambda r, amin, inc, pose: np.array(
+                [[pose[0] + d * math.cos(pose[2] + amin + k * inc),
+                  pose[1] + d * math.sin(pose[2] + amin + k * inc)]
+                 for k, d in enumerate(r) if math.isfinite(d)]).reshape(-1, 2)),
+            ("a homogeneous transform", lambda r, amin, inc, pose: _points_matrix(
+                r, amin, inc, 0.0, np.inf, pose)),
+        ],
+        "edge_error": [
+            ("the formula written out", _edge_formula),
+            ("homogeneous matrices", _edge_homogeneous),
+        ],
+        "edge_jacobians": [
+            ("rotation matrices and dR/dθ", _jacobians_rotations),
+        ],
+        "gauss_newton_step": [
+            ("stacked Jacobian rows, node 0's rows deleted", _gn_delete),
+            ("the catalogue's own error and Jacobians", lambda p, e: _gn_delete(
+                p, e, edge=_edge, jac=_jac)),
+        ],
+    },
+})
 HONEST_ENTRIES = [(lab, function, name, fn) for lab, table in HONEST.items()
                   for function, variants in table.items() for name, fn in variants]
 
 
 @pytest.mark.parametrize(("lab", "function", "variant", "honest"), HONEST_ENTRIES,
                          ids=[f"{lab}.{fn}: {name}" for lab, fn, name, _ in HONEST_ENTRIES])
-def test_honest_variants_keep_full_marks_for_every_student(lab, function, variant, honest):
-    """Another correct formulation passes the public cases and every student's hidden ones."""
+def test_each_honest_variant_keeps_full_marks_for_every_student(lab, function, variant, honest):
     exercise = load_lab(lab).exercise(function)
-    assert not _fails(exercise, honest, exercise.public), variant
+    assert not _fails(exercise, honest, exercise.public), "a public case fails"
     failed = [(secret, student) for secret in SECRETS for student in STUDENTS
               if _fails(exercise, honest, exercise.hidden_cases(
                   course_seed(exercise.id, student, secret)))]
-    assert not failed, f"{variant!r} loses points for {len(failed)} students, e.g. {failed[:3]}"
+    assert not failed, (f"{len(failed)} of {len(SECRETS) * len(STUDENTS)} students lose points "
+                        f"for {variant!r}, e.g. {failed[:3]}")
+
+
+def test_honest_variants_cover_every_exercise_of_labs_06_to_08():
+    for lab in ("lab06", "lab07", "lab08"):
+        assert set(HONEST[lab]) == {ex.function for ex in load_lab(lab).exercises}, lab
 
 
 def test_the_catalogue_covers_every_exercise_and_every_diagnostic():
@@ -1372,3 +1679,80 @@ def test_the_twist_node_built_from_the_forward_kinematics_loses_exactly_its_poin
     lost = {k: v for k, v in result.exercises.items() if v.points < v.max_points}
     assert list(lost) == ["lab01.twist_to_motor_speeds"]
     assert "erratum 6" in lost["lab01.twist_to_motor_speeds"].reason
+
+
+# ------------------------------------------------------------------ Labs 06–08: hints that explain
+
+def _checked(lab, fn, name, capsys):
+    """What ``check`` prints for ``fn`` under the exercise's name, and the warnings raised."""
+    import warnings
+
+    from grader import checker
+
+    def student(*args, **kwargs):
+        return fn(*args, **kwargs)
+
+    student.__name__ = name
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        checker(lab)(student)
+    return capsys.readouterr().out, [str(w.message) for w in caught]
+
+
+def test_should_resample_turned_round_is_told_the_comparison_not_to_multiply_by_n(capsys):
+    """'>' for '<' answers every case wrongly, so each hint that fits its answer is given (a
+    bool tells one bit): each must name the turned comparison. It costs every student."""
+    def turned(w, t):
+        return bool(1 / np.sum(np.square(w)) > t * len(w))
+
+    assert not _students_spared(load_lab("lab07").exercise("should_resample"), turned)
+    out, _ = _checked("lab07", turned, "should_resample", capsys)
+    hints = [line for line in out.splitlines() if line.startswith("  this is what")]
+    assert "✗ lab07.should_resample" in out and len(hints) == 3, out
+    for line in hints:
+        assert "(<, not >)" in line or "turned round" in line, line
+
+
+def test_edge_error_with_the_composition_turned_round_names_the_inverted_transform(capsys):
+    from kit import geometry
+
+    out, _ = _checked("lab08", lambda xi, xj, z: geometry.relative(geometry.relative(xi, xj),
+                                                                    z), "edge_error", capsys)
+    assert "the other transform inverted" in out and "REP-103" not in out, out
+
+
+def test_beam_angles_by_linspace_is_told_the_spacing_not_n_plus_one_points(capsys):
+    out, _ = _checked("lab06", lambda amin, inc, n: np.linspace(amin, amin + n * inc, n),
+                      "beam_angles", capsys)
+    assert "n · angle_increment / (n − 1) apart" in out and "n + 1" not in out, out
+
+
+def test_multinomial_resampling_loses_points_for_every_student_without_a_wrong_hint(capsys):
+    """Independent draws cannot be recognised case by case (each run draws others), so no
+    hint names them; they must still cost points under every student's hidden cases, and
+    no other mistake's hint may be given."""
+    def multinomial(w, n, r):
+        w = np.asarray(w, float)
+        return np.sort(np.random.default_rng().choice(len(w), n, p=w / w.sum()))
+
+    exercise = load_lab("lab07").exercise("low_variance_resample")
+    assert not _students_spared(exercise, multinomial)
+    out, _ = _checked("lab07", multinomial, "low_variance_resample", capsys)
+    assert "✗ lab07.low_variance_resample" in out and "this is what" not in out, out
+
+
+@pytest.mark.parametrize("lab", ["lab06", "lab07", "lab08"])
+def test_no_warning_reaches_the_check_output_of_a_seeded_mistake_or_a_nan_answer(lab, capsys):
+    spec = load_lab(lab)
+    for function, bugs in CATALOGUE[lab].items():
+        expected = spec.exercise(function).reference(*spec.exercise(function).public[0].args)
+
+        def nan(*args, _e=expected):
+            if isinstance(_e, tuple):
+                return tuple(np.full(np.shape(v), np.nan) for v in _e)
+            return np.full(np.shape(_e), np.inf) if np.ndim(_e) else np.nan
+
+        for name, buggy in [*bugs, ("NaN or inf", nan)]:
+            out, warned = _checked(lab, buggy, function, capsys)
+            assert "✗" in out and not warned, (function, name, warned)
+            assert "Warning" not in out, (function, name, out)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -174,3 +175,46 @@ def test_slam_drops_the_returns_of_a_person_in_seen_free_space_and_keeps_the_wal
     unknown = np.zeros_like(mask)
     same, none = scenarios.drop_returns_in(scan, laser, unknown, grid.info)
     assert none == 0 and same is scan and not np.isnan(scan.ranges).any()
+
+
+NAV2_HUMBLE = Path(__file__).resolve().parents[1] / "data" / "nav2_params" / "nav2-humble" / \
+    "nav2_params.yaml"
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--params", "missing.yaml"], "missing.yaml: no such parameter file"),
+    (["--namespace", "robot1"], "--namespace needs --params"),
+    (["--params", str(NAV2_HUMBLE), "--controller", "rpp"],
+     "the controller asked for is 'rpp', but the file's FollowPath is "
+     "dwb_core::DWBLocalPlanner"),
+])
+def test_a_parameter_file_that_cannot_be_used_is_refused_in_one_line(tmp_path, capsys, args,
+                                                                     message):
+    out = tmp_path / "t.csv"
+    assert main(["navigate", "--episodes", "1", *args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_a_file_with_a_bad_value_names_it(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(NAV2_HUMBLE.read_text().replace("max_vel_x: 0.26", "max_vel_x: fast"))
+    assert main(["navigate", "--params", str(bad), "--out", str(tmp_path / "t.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "controller_server.FollowPath.max_vel_x must be a number; got 'fast'" in err
+
+
+@pytest.mark.slow
+def test_navigate_runs_from_nav2s_humble_file_and_prints_what_became_of_each_key(tmp_path,
+                                                                                  capsys):
+    out = tmp_path / "humble.csv"
+    assert main(["navigate", "--world", "office", "--route", "glass", "--episodes", "1",
+                 "--params", str(NAV2_HUMBLE), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith(f"Nav2 parameters from {NAV2_HUMBLE}: ")
+    assert "velocity_smoother — not used: the kit does not mirror velocity_smoother" in printed
+    assert "amcl:deskew: true — the kit's own parameter" in printed
+    assert "office/glass, uiabot, truth, dwb: " in printed
+    header, row = read_rows(out)
+    assert len(header) == len(row) == len(scenarios.COLUMNS)

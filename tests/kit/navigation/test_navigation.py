@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -17,6 +18,7 @@ from kit.navigation import (
     DwbController,
     DwbParameters,
     GoalChecker,
+    NavigationConfig,
     NavigationCostmap,
     Navigator,
     NavigatorParameters,
@@ -24,6 +26,7 @@ from kit.navigation import (
     RegulatedPurePursuit,
     RppParameters,
     Spin,
+    Unavailable,
     arc_poses,
     check_path,
     closest_index,
@@ -262,8 +265,9 @@ def test_dwb_parameters_are_checked():
 # ---------------------------------------------------------------- costmaps
 
 def test_the_vectorised_obstacle_layer_marks_what_nav2s_marks():
-    """The same returns into the kit's ObstacleLayer (Nav2's Bresenham, beam by beam) and
-    into the navigation costmap (all beams at once): the same cells cleared and marked."""
+    """The same returns into the kit's ObstacleLayer beam by beam (Nav2's Bresenham as
+    written) and into the navigation costmap (all beams in one compiled loop): the same cells
+    cleared and marked."""
     rng = np.random.default_rng(3)
     angles = rng.uniform(-math.pi, math.pi, 90)
     ranges = rng.uniform(0.5, 2.4, 90)
@@ -277,11 +281,12 @@ def test_the_vectorised_obstacle_layer_marks_what_nav2s_marks():
     ref.mark(points, sensor, ObservationSource())
     ours = NavigationCostmap(None, SQUARE, rolling_window=True, width=5.0, height=5.0)
     ours._roll(*sensor)
-    ours.obstacles[:] = LETHAL_OBSTACLE
+    layer = ours.obstacles["obstacle_layer"]
+    layer.costs[:] = LETHAL_OBSTACLE
     ours.add_points(points, sensor)
     assert ours.origin == (0.0, 0.0)
-    assert np.array_equal(ours.obstacles, ref.costs)
-    assert 1000 < np.count_nonzero(ours.obstacles == 0) < 9000     # cleared a good part
+    assert np.array_equal(layer.costs, ref.costs)
+    assert 1000 < np.count_nonzero(layer.costs == 0) < 9000     # cleared a good part
 
 
 def test_a_rolling_window_keeps_what_it_saw_where_it_was():
@@ -292,12 +297,13 @@ def test_a_rolling_window_keeps_what_it_saw_where_it_was():
     row, col = costmap.world_to_cell(1.0, 0.5)
     assert costmap.costs[row, col] == LETHAL_OBSTACLE
     cm.update_points(np.zeros((0, 2)), (5.0, 0.3), (5.0, 0.3))       # far away: forgotten
-    assert not np.any(cm.obstacles == LETHAL_OBSTACLE)
+    assert not np.any(cm.obstacles["obstacle_layer"].costs == LETHAL_OBSTACLE)
 
 
 def test_a_new_map_replaces_the_static_layer_and_keeps_what_was_seen():
     """SLAM's /map every few seconds: the static layer follows it (keep-out applied again),
-    the marks of the obstacle layer stay when the canvas does, a new resolution is refused."""
+    the marks of the obstacle layer stay when the canvas does; a new resolution gives the
+    costmap the map's geometry, as Nav2's static layer resizes its costmap."""
     blank = free_grid()
     keepout = free_grid(boxes=((7.0, 1.0, 7.5, 1.5),))
     cm = NavigationCostmap(blank, SQUARE, keepout=keepout)
@@ -313,9 +319,9 @@ def test_a_new_map_replaces_the_static_layer_and_keeps_what_was_seen():
                             height=same.info.height, origin=msgs.Pose(msgs.Point(1.0, 0.0, 0.0)))
     cm.set_static(msgs.OccupancyGrid(same.header, info, same.data))  # another canvas: marks go
     assert cm.origin == (1.0, 0.0)
-    assert not np.any(cm.obstacles == LETHAL_OBSTACLE)
-    with pytest.raises(ValueError, match="resolution"):
-        cm.set_static(free_grid(res=0.1))
+    assert not np.any(cm.obstacles["obstacle_layer"].costs == LETHAL_OBSTACLE)
+    cm.set_static(free_grid(res=0.1))
+    assert (cm.resolution, cm.shape) == (pytest.approx(0.1), (40, 100))
 
 
 def test_the_navigator_plans_on_the_newest_map():
@@ -440,3 +446,148 @@ def test_the_navigator_refuses_no_goals_and_unknown_controllers():
         Navigator(free_grid(), load("uiabot"), controller="teb")
     with pytest.raises(ValueError):
         nav.navigate_to_pose((1.0, np.nan, 0.0))
+
+
+# ---------------------------------------------------------------- Nav2's parameters, mirrored
+
+def straight_plan(ctrl, goal_yaw=0.0):
+    ctrl.set_plan([(x, 2.0) for x in np.linspace(0.5, 5.5, 101)], goal_yaw)
+
+
+def open_costmap():
+    return Costmap(np.zeros((80, 120), np.uint8), 0.05)
+
+
+def test_dwb_scores_with_the_critics_listed_and_their_scales():
+    """The total is Σ scale · score over the listed critics only; an unlisted critic neither
+    scores nor rules a trajectory out (Nav2's DWB loads only the critics it is given)."""
+    pose, vel = np.array([1.3, 2.0, 0.0]), (0.3, 0.0)
+    full = DwbController(DwbParameters(vx_samples=5, vtheta_samples=5), SQUARE)
+    straight_plan(full)
+    a = full.score(pose, vel, open_costmap())
+    only = DwbController(DwbParameters(vx_samples=5, vtheta_samples=5,
+                                       critics=("PathDist", "GoalDist"),
+                                       scales={"PathDist": 2.0, "GoalDist": 3.0}), SQUARE)
+    straight_plan(only)
+    b = only.score(pose, vel, open_costmap())
+    np.testing.assert_allclose(b.total, 2.0 * a.scores["PathDist"] + 3.0 * a.scores["GoalDist"])
+    with pytest.raises(ValueError, match="unknown critics"):
+        DwbParameters(critics=("Twirling",))
+
+
+def test_dwb_base_obstacle_sums_the_trajectory_or_takes_its_last_pose():
+    costs = np.zeros((80, 120), np.uint8)
+    costs[:, 60:] = 100                                # a costly half, not lethal
+    cm = Costmap(costs, 0.05)
+    pose, vel = np.array([2.5, 2.0, 0.0]), (0.4, 0.0)
+    scored = {}
+    for sum_scores in (True, False):
+        ctrl = DwbController(DwbParameters(vx_samples=3, vtheta_samples=3,
+                                           sum_scores=sum_scores), SQUARE)
+        straight_plan(ctrl)
+        scored[sum_scores] = ctrl.score(pose, vel, cm)
+    poses = scored[True].poses
+    cells = np.floor(poses[..., :2] / 0.05).astype(int)
+    under = costs[cells[..., 1], cells[..., 0]].astype(float)
+    np.testing.assert_array_equal(scored[True].scores["BaseObstacle"], under.sum(axis=1))
+    np.testing.assert_array_equal(scored[False].scores["BaseObstacle"], under[:, -1])
+
+
+def test_dwb_speed_limits_rule_out_samples_as_nav2s_kinematic_parameters():
+    """Nav2's ``isValidSpeed``: faster than max_speed_xy, slower than min_speed_xy while
+    turning slower than min_speed_theta, and standing still are invalid."""
+    p = DwbParameters(vx_samples=5, vtheta_samples=5, max_speed_xy=0.3, min_speed_xy=0.1,
+                      min_speed_theta=0.4, max_vel_x=0.5)
+    ctrl = DwbController(p, SQUARE)
+    straight_plan(ctrl)
+    scored = ctrl.score(np.array([1.3, 2.0, 0.0]), (0.0, 0.0), open_costmap())
+    vx, vth = scored.velocities.T
+    expected = (vx <= 0.3 + 1e-9) & ~((vx < 0.1) & (np.abs(vth) < 0.4)) & \
+        ~((vx == 0) & (vth == 0))
+    np.testing.assert_array_equal(scored.valid, expected)
+    assert scored.reasons["speed limits"] == int((~expected).sum())
+
+
+def test_rotate_to_goal_weighs_speed_by_its_slowing_factor_and_looks_ahead_in_time():
+    pose, vel = np.array([5.4, 2.0, 0.3]), (0.4, 0.0)    # arriving: in the goal window, fast
+    out = {}
+    for factor, lookahead in ((5.0, -1.0), (2.0, -1.0), (5.0, 0.5)):
+        ctrl = DwbController(DwbParameters(vx_samples=4, vtheta_samples=5,
+                                           slowing_factor=factor,
+                                           rotate_lookahead_time=lookahead), SQUARE)
+        straight_plan(ctrl, goal_yaw=0.0)
+        out[factor, lookahead] = ctrl.score(pose, vel, open_costmap())
+    base, slow = out[5.0, -1.0], out[2.0, -1.0]
+    vx = base.velocities[:, 0]
+    np.testing.assert_allclose(base.scores["RotateToGoal"] - slow.scores["RotateToGoal"],
+                               3.0 * vx ** 2)
+    ahead = out[5.0, 0.5]
+    steps = ahead.poses.shape[1]
+    dt = 1.7 / steps
+    i = int(0.5 / dt)
+    yaw = np.concatenate([np.full((len(vx), 1), 0.3), ahead.poses[:, :, 2]], axis=1)
+    expected = yaw[:, i] + (0.5 - i * dt) / dt * (yaw[:, i + 1] - yaw[:, i])
+    np.testing.assert_allclose(ahead.scores["RotateToGoal"],
+                               5.0 * vx ** 2 + np.abs(geometry.wrap_angle(-expected)))
+
+
+def test_rpp_looks_for_the_robot_on_the_path_only_so_far_ahead():
+    path = [(x, 0.0) for x in np.linspace(0.0, 6.0, 61)]
+    for reach, expected in ((2.0, 20), (6.0, 50)):
+        ctrl = RegulatedPurePursuit(RppParameters(max_robot_pose_search_dist=reach), SQUARE)
+        ctrl.set_plan(path)
+        ctrl.compute_velocity_commands((5.0, 0.0, 0.0), (0.0, 0.0))
+        assert ctrl._index == expected
+
+
+def test_the_stopped_goal_checker_and_the_pose_progress_checker():
+    gc = GoalChecker(0.25, 0.25, trans_stopped_velocity=0.1, rot_stopped_velocity=0.2)
+    goal = (1.0, 0.0, 0.0)
+    assert not gc.is_goal_reached((1.0, 0.0, 0.0), goal, (0.3, 0.0))     # still moving
+    assert not gc.is_goal_reached((1.0, 0.0, 0.0), goal, (0.0, 0.5))     # still turning
+    assert gc.is_goal_reached((1.0, 0.0, 0.0), goal, (0.05, 0.1))
+    pc = ProgressChecker(0.5, 10.0, required_movement_angle=0.5)
+    assert pc.check(0.0, (0.0, 0.0, 0.0)) and pc.check(9.0, (0.1, 0.0, 0.6))   # turned
+    assert pc.check(18.0, (0.1, 0.0, 0.7)) and not pc.check(19.5, (0.1, 0.0, 0.7))
+
+
+def test_the_controller_servers_failure_tolerance_stops_the_robot_before_failing():
+    grid = free_grid()
+    config = NavigationConfig.for_robot(load("uiabot"))
+
+    class Flaky:
+        def __init__(self):
+            self.calls = 0
+
+        def set_plan(self, path, goal_yaw=None):
+            pass
+
+        def compute_velocity_commands(self, pose, velocity, costmap):
+            self.calls += 1
+            if 3 <= self.calls <= 6:
+                raise ControlError("collision ahead")
+            return 0.2, 0.0
+
+    for tolerance, failed in ((0.0, 1), (0.5, 0), (0.1, 1)):
+        cfg = dataclasses.replace(config, navigator=dataclasses.replace(
+            config.navigator, failure_tolerance=tolerance))
+        nav = Navigator(grid, load("uiabot"), controller=Flaky(), config=cfg)
+        nav.navigate_to_pose((8.0, 1.0, 0.0))
+        commands = [nav.tick(k / 20, (1.0, 1.0, 0.0)) for k in range(8)]
+        failures = sum(e.kind == "control failed" for e in nav.events)
+        assert (failures > 0) == bool(failed), (tolerance, commands)
+        if not failed:
+            assert commands[2:6] == [(0.0, 0.0)] * 4 and commands[6] == (0.2, 0.0)
+
+
+def test_a_recovery_the_behaviour_server_lacks_fails_at_once_and_the_round_goes_on():
+    config = NavigationConfig.for_robot(load("uiabot"))
+    cfg = dataclasses.replace(config, behaviors=dataclasses.replace(
+        config.behaviors, unavailable=("spin",)))
+    nav = Navigator(free_grid(), load("uiabot"), config=cfg)
+    assert [b.name if b is not None else None for b in nav.behaviors] == [
+        None, "spin", "wait", "backup"]
+    assert isinstance(nav.behaviors[1], Unavailable)
+    status, cmd = nav.behaviors[1].tick(0.0, (1.0, 1.0, 0.0), None)
+    assert status == FAILED and cmd == (0.0, 0.0) and "behavior_plugins" in \
+        nav.behaviors[1].reason

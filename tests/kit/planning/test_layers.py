@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from kit import maps, msgs
+from kit.nav2params import ParameterReport
 from kit.planning import (
     LETHAL_OBSTACLE,
     NO_INFORMATION,
@@ -212,19 +213,27 @@ global_costmap:
 
 def test_a_nav2_parameter_file_loads_as_it_is(tmp_path):
     (tmp_path / "nav2_params.yaml").write_text(NAV2_YAML)
-    p = load_costmap_params(tmp_path / "nav2_params.yaml")
+    report = ParameterReport()
+    p = load_costmap_params(tmp_path / "nav2_params.yaml", report=report)
     assert (p.robot_radius, p.resolution, p.track_unknown_space) == (0.1, 0.05, True)
     assert [type(layer).__name__ for layer in p.layers] == [
-        "StaticLayerParams", "ObstacleLayerParams", "InflationLayerParams"]
-    obstacle, inflation = p.layers[1], p.layers[2]
+        "StaticLayerParams", "ObstacleLayerParams", "ObstacleLayerParams",
+        "InflationLayerParams"]
+    obstacle, voxel, inflation = p.layers[1], p.layers[2], p.layers[3]
     assert obstacle.observation_sources == (ObservationSource(
         name="scan", topic="/scan", marking=True, clearing=True, raytrace_max_range=3.0,
         obstacle_max_range=2.5),)
+    assert voxel.name == "voxel_layer" and voxel.observation_sources == ()   # none declared
     assert (inflation.inflation_radius, inflation.cost_scaling_factor) == (0.55, 3.0)
     assert p.filters == (KeepoutFilterParams("keepout_filter", True),)
-    assert p.ignored == ("voxel_layer (nav2_costmap_2d::VoxelLayer)",
-                         "speed_filter (nav2_costmap_2d::SpeedFilter)")
+    assert p.ignored == ("speed_filter (nav2_costmap_2d::SpeedFilter)",)
     assert p.footprint is None and p.robot_footprint().shape == (16, 2)
+    node = "global_costmap/global_costmap"
+    assert report.ignored[f"{node}:speed_filter.enabled"].startswith("not supported")
+    assert report.ignored[f"{node}:obstacle_layer.scan.max_obstacle_height"] == \
+        "no effect: the kit's obstacle layers are 2-D"
+    assert f"{node}:voxel_layer.enabled" in report.used
+    assert sum("VoxelLayer is read as a 2-D obstacle layer" in n for n in report.notes) == 1
 
 
 def test_defaults_and_footprint_strings_follow_nav2(tmp_path):
@@ -240,13 +249,15 @@ def test_defaults_and_footprint_strings_follow_nav2(tmp_path):
 @pytest.mark.parametrize(("text", "message"), [
     ("other:\n  ros__parameters:\n    a: 1\n", "no 'global_costmap' section"),
     ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      track_unknown_space: "
-     "MAYBE\n", "track_unknown_space must be true or false; got 'MAYBE' .a launch-file"),
+     "MAYBE\n", "track_unknown_space must be true or false; got 'MAYBE'"),
+    ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      use_maximum: "
+     "$(var max)\n", "use_maximum must be true or false; got .* .a launch-file substitution"),
     ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      resolution: fine\n",
      "resolution must be a number"),
     ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      footprint: '[[1, 2]]'\n",
      "three or more"),
-    ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      plugins: static_layer\n",
-     "plugins must be a list"),
+    ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      plugins: [[a, b]]\n",
+     "plugins must be a list of names"),
     ("global_costmap: [unclosed\n", "not valid YAML"),
 ])
 def test_bad_parameter_files_name_the_problem(tmp_path, text, message):
@@ -264,3 +275,106 @@ def test_turtlebot3_world_costmap_with_its_own_parameters(shared_data, tmp_path)
     assert (cm.height, cm.width) == (384, 384)
     assert int((cm.costs == LETHAL_OBSTACLE).sum()) == 795     # the map's occupied cells
     assert int((cm.costs == NO_INFORMATION).sum()) < 138722    # unknown next to walls inflated
+
+
+# ---------------------------------------------------------------- one costmap for all
+
+def scattered_points(n=300, seed=5, spread=4.0, centre=(2.5, 2.0)):
+    rng = np.random.default_rng(seed)
+    angles = rng.uniform(-math.pi, math.pi, n)
+    ranges = rng.uniform(0.1, spread, n)
+    return np.column_stack([centre[0] + ranges * np.cos(angles),
+                            centre[1] + ranges * np.sin(angles)])
+
+
+def test_the_compiled_ray_trace_clears_the_cells_of_nav2s_steps_beam_by_beam():
+    """All beams in one compiled loop against Nav2's raytraceFreespace as written (beams
+    shortened at the grid's edge, Bresenham from raytrace_min_range to raytrace_max_range)."""
+    points = scattered_points()                  # many of them beyond the 5 x 4 m grid
+    source = ObservationSource(clearing=True, raytrace_min_range=0.3, raytrace_max_range=2.2)
+    fast = ObstacleLayer((80, 100), RES, (0.0, 0.0))
+    slow = ObstacleLayer((80, 100), RES, (0.0, 0.0))
+    fast.costs[:] = slow.costs[:] = LETHAL_OBSTACLE
+    assert fast.clear(points, (2.5, 2.0), source) == slow.clear_reference(points, (2.5, 2.0),
+                                                                           source) == 300
+    np.testing.assert_array_equal(fast.costs, slow.costs)
+    assert 500 < np.count_nonzero(fast.costs == 0) < 8000
+
+
+def test_the_kits_rules_trace_whole_beams_and_mark_by_metres():
+    """``clip_rays=False``: each beam is traced to its own end cell, the cells beyond the grid
+    dropped; ``range_in_cells=False``: a return marks when it is within the ranges in metres."""
+    points = scattered_points(seed=6)
+    sensor = (2.5, 2.0)
+    source = ObservationSource(clearing=True, marking=True, obstacle_max_range=2.0)
+    layer = ObstacleLayer((80, 100), RES, (0.0, 0.0), clip_rays=False, range_in_cells=False)
+    layer.costs[:] = LETHAL_OBSTACLE
+    layer.update_points(points, sensor, (source,))
+    expected = np.full((80, 100), LETHAL_OBSTACLE, np.uint8)
+    start = (math.floor(sensor[1] / RES), math.floor(sensor[0] / RES))
+    for x, y in points:
+        cells = raytrace_line(start, (math.floor(y / RES), math.floor(x / RES)),
+                              max_length=math.ceil(3.0 / RES))
+        on = (cells[:, 0] >= 0) & (cells[:, 0] < 80) & (cells[:, 1] >= 0) & (cells[:, 1] < 100)
+        expected[cells[on, 0], cells[on, 1]] = 0
+    near = points[np.hypot(*(points - sensor).T) <= 2.0]
+    expected[np.floor(near[:, 1] / RES).astype(int), np.floor(near[:, 0] / RES).astype(int)] = \
+        LETHAL_OBSTACLE
+    np.testing.assert_array_equal(layer.costs, expected)
+
+
+def test_a_rolling_window_takes_the_map_where_it_reaches_and_its_default_elsewhere():
+    """Nav2's static layer in a rolling window writes only where the map is; beyond it the
+    master grid keeps its default, free (or unknown with track_unknown_space)."""
+    grid = room_map()                                     # 5 m x 4 m, walls round it
+    for track, outside in ((False, 0), (True, NO_INFORMATION)):
+        params = CostmapParams(rolling_window=True, width=2.0, height=2.0, resolution=RES,
+                               track_unknown_space=track,
+                               layers=(StaticLayerParams(),))
+        window = LayeredCostmap(params, grid).update((0.52, 0.52, 0.0))
+        assert window.origin == pytest.approx((-0.5, -0.5)) and window.costs.shape == (40, 40)
+        static = static_layer(grid, track_unknown_space=track)
+        np.testing.assert_array_equal(window.costs[10:, 10:], static[:30, :30])
+        assert (window.costs[:10, :] == outside).all() and (window.costs[:, :10] == outside).all()
+
+
+def test_a_rolling_window_at_another_resolution_reads_the_map_cell_by_cell():
+    grid = room_map()
+    params = CostmapParams(rolling_window=True, width=1.8, height=1.8, resolution=0.06,
+                           layers=(StaticLayerParams(),))
+    window = LayeredCostmap(params, grid).update((4.6, 3.6, 0.0))
+    static = static_layer(grid)
+    rows, cols = np.indices(window.costs.shape)
+    x = window.origin[0] + (cols + 0.5) * 0.06
+    y = window.origin[1] + (rows + 0.5) * 0.06
+    mx, my = np.floor(x / RES).astype(int), np.floor(y / RES).astype(int)
+    on = (mx < 100) & (my < 80)
+    np.testing.assert_array_equal(window.costs[on], static[my[on], mx[on]])
+    assert (window.costs[~on] == 0).all() and (~on).any()
+
+
+def test_a_keepout_filter_among_the_plugins_is_inflated_and_among_the_filters_is_not():
+    grid = room_map()
+    mask = msgs.OccupancyGrid(grid.header, grid.info, np.where(
+        np.arange(grid.data.size) % 100 == 50, 100, 0).astype(np.int8))     # a line x = 2.5 m
+    inflation = InflationLayerParams(inflation_radius=0.3, cost_scaling_factor=5.0)
+    layered = CostmapParams(robot_radius=0.1, layers=(StaticLayerParams(),
+                                                      KeepoutFilterParams(), inflation))
+    filtered = CostmapParams(robot_radius=0.1, layers=(StaticLayerParams(), inflation),
+                             filters=(KeepoutFilterParams(),))
+    costs = {}
+    for name, params in (("layer", layered), ("filter", filtered)):
+        cm = LayeredCostmap(params, grid)
+        cm.set_keepout_mask(mask)
+        costs[name] = cm.update().costs
+    assert (costs["layer"][1:-1, 50] == LETHAL_OBSTACLE).all()
+    assert (costs["filter"][1:-1, 50] == LETHAL_OBSTACLE).all()
+    assert costs["layer"][40, 52] > 0 and costs["filter"][40, 52] == 0
+
+
+def test_the_static_layers_footprint_clearing_frees_the_map_under_the_robot():
+    grid = room_map()
+    params = CostmapParams(robot_radius=0.2, layers=(StaticLayerParams(
+        footprint_clearing_enabled=True),))
+    costs = LayeredCostmap(params, grid).update((0.1, 0.1, 0.0)).costs
+    assert costs[0, 0] == 0 and costs[0, 20] == LETHAL_OBSTACLE

@@ -139,3 +139,95 @@ def test_turtlebot3_world_path_between_the_pillars(shared_data, tmp_path):
         cells = np.floor((dense - cm.origin) / cm.resolution).astype(int)
         assert (cm.costs[cells[:, 1], cells[:, 0]] < 253).all()
         assert path_length(points) >= np.linalg.norm(goal - start) - 1e-9
+
+
+# ---------------------------------------------------------------- Nav2's planner options
+
+def reachable_by_flood(costs, start):
+    """The cells an 8-connected walk without corner cutting reaches from ``start`` (scipy's
+    labelling of the free cells, the corners handled by a walk): the reference for
+    ``GridSearch.reachable``."""
+    from collections import deque
+
+    free = costs < 253
+    seen = np.zeros_like(free)
+    seen[start] = True
+    queue = deque([start])
+    while queue:
+        r, c = queue.popleft()
+        for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)):
+            rr, cc = r + dr, c + dc
+            if not (0 <= rr < free.shape[0] and 0 <= cc < free.shape[1]) or seen[rr, cc] or \
+                    not free[rr, cc]:
+                continue
+            if dr and dc and not (free[r + dr, c] and free[r, c + dc]):
+                continue
+            seen[rr, cc] = True
+            queue.append((rr, cc))
+    return seen
+
+
+def test_the_goal_tolerance_ends_the_path_at_navfns_nearest_reachable_point():
+    """NavFn's ``tolerance``: a goal that cannot be reached gives a path to the reachable
+    point nearest it within ``tolerance`` in x and y (Nav2's NavfnPlanner::makePlan)."""
+    cm = room()
+    closed = np.array(cm.costs)
+    closed[40:46, 50] = 254                              # the door shut
+    shut = Costmap(closed, 0.1, (-1.0, -2.0))
+    goal = (4.5, -1.0, 0.0)                              # just behind the wall, x = 4.05
+    assert not compute_path_to_pose((0.0, -1.0, 0.0), goal, shut).ok
+    short = compute_path_to_pose((0.0, -1.0, 0.0), goal, shut,
+                                 planner=GridPlanner(tolerance=0.3))
+    assert not short.ok and "within tolerance" in short.error_msg
+    result = compute_path_to_pose((0.0, -1.0, 0.0), goal, shut,
+                                  planner=GridPlanner(tolerance=0.6))
+    assert result.ok
+    end = path_to_points(result.path)[-1]
+    # the reference: every reachable cell centre in the 0.6 m square, the nearest to the goal
+    reach = reachable_by_flood(closed, shut.world_to_cell(0.0, -1.0))
+    rows, cols = np.nonzero(reach)
+    x = shut.origin[0] + (cols + 0.5) * 0.1
+    y = shut.origin[1] + (rows + 0.5) * 0.1
+    inside = (np.abs(x - goal[0]) <= 0.6) & (np.abs(y - goal[1]) <= 0.6)
+    d2 = (x - goal[0]) ** 2 + (y - goal[1]) ** 2
+    best = np.flatnonzero(inside & (d2 == d2[inside].min()))
+    assert end.tolist() == pytest.approx([x[best[0]], y[best[0]]])
+    # a goal in the wall itself: the same rule, no GOAL_OCCUPIED
+    inwall = compute_path_to_pose((0.0, -1.0, 0.0), (4.05, -1.0, 0.0), shut,
+                                  planner=GridPlanner(tolerance=0.6))
+    assert inwall.ok and path_to_points(inwall.path)[-1][0] < 4.0
+
+
+def test_downsampling_plans_on_the_costliest_cell_of_each_block():
+    cm = room()
+    planner = GridPlanner(downsampling_factor=2)
+    coarse = planner.grid(cm)
+    assert (coarse.resolution, coarse.origin, coarse.costs.shape) == (0.2, cm.origin, (30, 50))
+    blocks = [cm.costs[r:r + 2, c:c + 2].max() for r in range(0, 60, 2) for c in range(0, 100, 2)]
+    assert coarse.costs.ravel().tolist() == [int(b) for b in blocks]
+    result = compute_path_to_pose((0.0, -1.0, 0.0), (7.0, -1.0, 0.0), cm, planner=planner)
+    inner = path_to_points(result.path)[1:-1]
+    assert result.ok and np.allclose(((inner - cm.origin) / 0.2) % 1.0, 0.5)   # coarse centres
+
+
+def test_max_iterations_stops_a_search_and_says_so():
+    cm = room()
+    result = compute_path_to_pose((0.0, -1.0, 0.0), (7.0, -1.0, 0.0), cm,
+                                  planner=GridPlanner(max_iterations=50))
+    assert not result.ok and "within max_iterations = 50" in result.error_msg
+    assert result.searches[0].expanded == 50
+    with pytest.raises(ValueError, match="max_iterations must be a positive whole number"):
+        GridPlanner(max_iterations=0)
+    with pytest.raises(ValueError, match="downsampling_factor must be a whole number"):
+        GridPlanner(downsampling_factor=0)
+    with pytest.raises(ValueError, match="tolerance must be a non-negative"):
+        GridPlanner(tolerance=-0.1)
+
+
+def test_the_final_approach_orientation_faces_the_way_the_path_arrives():
+    result = compute_path_to_pose((0.05, 0.05, 0.0), (0.05, 0.95, 0.0),
+                                  Costmap(np.zeros((10, 3), np.uint8), 0.1),
+                                  planner=GridPlanner(use_final_approach_orientation=True))
+    last = result.path.poses[-1].pose.orientation
+    assert float(geometry.quaternion_to_yaw([last.x, last.y, last.z, last.w])) == \
+        pytest.approx(math.pi / 2)
