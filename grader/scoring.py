@@ -131,13 +131,14 @@ def upstream_notes(exercises: Sequence[Exercise], results: dict[str, ExerciseRes
     """Point a failing exercise at the earlier exercises it uses that fail their own cases
     (``Exercise.uses``): one mistake upstream shows up downstream too."""
     by_function = {ex.function: ex for ex in exercises}
+    unfinished = ("missing function", "not implemented", "not graded")
     for ex in exercises:
         mine = results.get(ex.id)
-        if mine is None or mine.points >= mine.max_points or mine.status == "missing function":
+        if mine is None or mine.points >= mine.max_points or mine.status in unfinished:
             continue
         upstream = [results.get(by_function[n].id) for n in ex.uses if n in by_function]
         wrong = [r.id.split(".", 1)[1] for r in upstream
-                 if r is not None and r.points < r.max_points]
+                 if r is not None and r.points < r.max_points and r.status not in unfinished]
         if wrong:
             names = " and ".join(f"`{n}`" for n in wrong)
             mine.reason += (f"; your {names} {'fails its' if len(wrong) == 1 else 'fail their'} "

@@ -175,6 +175,7 @@ class _Limited:
     def __init__(self, controller: Any) -> None:
         self.controller = controller
         self.used = 0.0
+        self.commands: list[tuple[float, float]] = []
 
     def _call(self, name: str, *args: Any) -> Any:
         method = getattr(self.controller, name)
@@ -200,8 +201,9 @@ class _Limited:
         return self._call("set_plan", *args)
 
     def compute_velocity_commands(self, *args: Any) -> Any:
-        commands = self._call("compute_velocity_commands", *args)
-        return _checked_commands(commands)
+        commands = _checked_commands(self._call("compute_velocity_commands", *args))
+        self.commands.append(commands)
+        return commands
 
 
 def _checked_commands(commands: Any) -> tuple[float, float]:
@@ -227,12 +229,15 @@ class _Checked:
 
     def __init__(self, controller: Any) -> None:
         self.controller = controller
+        self.commands: list[tuple[float, float]] = []
 
     def set_plan(self, *args: Any) -> Any:
         return self.controller.set_plan(*args)
 
     def compute_velocity_commands(self, *args: Any) -> Any:
-        return _checked_commands(self.controller.compute_velocity_commands(*args))
+        commands = _checked_commands(self.controller.compute_velocity_commands(*args))
+        self.commands.append(commands)
+        return commands
 
 
 def _where(exc: BaseException) -> str:
@@ -285,7 +290,7 @@ def office_episode(make_controller: Callable[[RobotDescription], Any], seed: int
     try:
         runner.run(sum(limits) + 1.0, until=lambda r: node.done or touched())
         result = _outcome(node, nav, sim, contact[0] if contact else None, cruise,
-                          bystander.stand, limits[0])
+                          bystander.stand, limits[0], controller.commands)
     except Exception as exc:
         result = _controller_failed(exc, sim.time, nav, node)
     result.costmap = nav.global_costmap.costmap()
@@ -327,7 +332,8 @@ def _controller_failed(exc: BaseException, t: float, nav: Navigator,
 
 
 def _outcome(node: scenarios.NavigationNode, nav: Navigator, sim: Simulation, contact: Any,
-             cruise: float, extra: float, limit: float) -> EpisodeResult:
+             cruise: float, extra: float, limit: float,
+             commands: list[tuple[float, float]]) -> EpisodeResult:
     events = _events(nav)
     trail = np.array(node.trail) if node.trail else np.zeros((0, 3))
     if contact is not None:
@@ -351,30 +357,41 @@ def _outcome(node: scenarios.NavigationNode, nav: Navigator, sim: Simulation, co
     if row.reached:
         return EpisodeResult(False, "out of time", f"reached the goal after {row.seconds:.1f} s, "
                              f"over the {limit:.0f} s allowed", row.seconds, v, events, trail)
-    if "recoveries" in row.reason or nav.status != RUNNING and "time limit" not in row.reason:
-        return EpisodeResult(False, "gave up", f"the navigator gave up at {row.seconds:.1f} s: "
-                             f"{row.reason}; {left:.1f} m from the goal", row.seconds, v,
-                             events, trail)
-    return _late(row, trail, left, limit, v, events)
+    gave_up = "recoveries" in row.reason or (nav.status != RUNNING and \
+        "time limit" not in row.reason)
+    ending = (f"the navigator gave up at {row.seconds:.1f} s: {row.reason}" if gave_up else
+              f"out of time at {limit:.0f} s")
+    pattern = _pattern(commands)
+    if pattern:
+        kind, detail = pattern
+        return EpisodeResult(False, kind, f"{ending}; {kind}: {detail}; {left:.1f} m from the "
+                             f"goal", row.seconds, v, events, trail)
+    if gave_up:
+        return EpisodeResult(False, "gave up", f"{ending}; {left:.1f} m from the goal",
+                             row.seconds, v, events, trail)
+    return EpisodeResult(False, "out of time", f"{ending} with {left:.1f} m still to go",
+                         row.seconds, v, events, trail)
 
 
-def _late(row: scenarios.GoalResult, trail: Any, left: float, limit: float,
-          v: dict[str, bool], events: list[str]) -> EpisodeResult:
-    """Out of time: still going, stuck, or turning back and forth."""
-    recent = trail[-300:] if len(trail) else trail   # the last 15 s at 20 Hz
-    if len(recent) > 20:
-        moved = float(np.sum(np.hypot(*np.diff(recent[:, :2], axis=0).T)))
-        net = float(np.hypot(*(recent[-1, :2] - recent[0, :2])))
-        turns = np.diff(np.unwrap(recent[:, 2]))
-        flips = int(np.sum(np.diff(np.sign(turns[np.abs(turns) > 1e-3])) != 0))
-        if moved < 0.3:
-            return EpisodeResult(False, "stuck", f"out of time at {limit:.0f} s, stuck: "
-                                 f"moved {moved:.2f} m in the last 15 s, {left:.1f} m from the "
-                                 f"goal", row.seconds, v, events, trail)
-        if net < 0.3 and flips >= 6:
-            return EpisodeResult(False, "oscillating", f"out of time at {limit:.0f} s, "
-                                 f"oscillating: turned back and forth {flips} times in the "
-                                 f"last 15 s and got nowhere, {left:.1f} m from the goal",
-                                 row.seconds, v, events, trail)
-    return EpisodeResult(False, "out of time", f"out of time at {limit:.0f} s with {left:.1f} m "
-                         f"still to go", row.seconds, v, events, trail)
+STEPS = 200
+"""the controller's last commands looked at for a pattern (10 s at 20 Hz)."""
+
+
+def _pattern(commands: list[tuple[float, float]]) -> tuple[str, str] | None:
+    """("stuck", …) when the controller's last commands asked for no motion, ("oscillating",
+    …) when they turned back and forth without driving on; else ``None``."""
+    if len(commands) < STEPS // 2:
+        return None
+    recent = np.asarray(commands[-STEPS:], dtype=float)
+    v, w = recent[:, 0], recent[:, 1]
+    still = (np.abs(v) < 0.01) & (np.abs(w) < 0.05)
+    if still.mean() > 0.9:
+        return "stuck", (f"the controller asked for no motion in {still.sum()} of its last "
+                         f"{len(recent)} commands")
+    turning = w[np.abs(w) > 0.2]
+    flips = int(np.sum(np.diff(np.sign(turning)) != 0)) if len(turning) > 1 else 0
+    if flips >= 6 and abs(float(np.sum(v))) / 20.0 < 0.3:
+        return "oscillating", (f"its turn changed direction {flips} times in its last "
+                               f"{len(recent)} commands while it drove "
+                               f"{abs(float(np.sum(v))) / 20.0:.2f} m")
+    return None

@@ -309,9 +309,11 @@ def test_solutions_score_full_and_untouched_labs_score_zero(tmp_path, solved):
         assert solution.status == "ok" and solution.total == spec.max_points, solution.reason
         assert solution.cell_errors == [], solution.cell_errors
         assert all(e.status == "passed" and e.reason == f"all {len(e.cases)} cases pass"
-                   for e in solution.exercises.values())
+                   for e in solution.exercises.values()), {
+            k: e.reason for k, e in solution.exercises.items() if e.status != "passed"}
         assert all(c.passed and c.message == "" for e in solution.exercises.values()
-                   for c in e.cases)
+                   for c in e.cases), [(e.id, c.case, c.message) for e in
+                                       solution.exercises.values() for c in e.cases if c.message]
         assert untouched.status == "ok" and untouched.total == 0
         assert {e.status for e in untouched.exercises.values()} == {"not implemented"}
         assert all(e.reason == "not implemented yet" for e in untouched.exercises.values())
@@ -452,8 +454,9 @@ BUGS = [
      "    x = math.cos(th) * dx + math.sin(th) * dy       # the carrot in the robot's frame\n"
      "    y = -math.sin(th) * dx + math.cos(th) * dy\n",
      "    x, y = dx, dy\n", "into the robot's frame"),
-    ("lab10", "10-navigation.ipynb", "regulated_speed", "            v *= radius / min_radius",
-     "            v *= min_radius / radius", "scales DOWN"),
+    ("lab10", "10-navigation.ipynb", "regulated_speed",
+     "        v = desired * min(1.0, (1.0 / abs(curvature)) / min_radius)",
+     "        v = desired * min(1.0, min_radius / (1.0 / abs(curvature)))", "scales DOWN"),
     ("lab10", "10-navigation.ipynb", "dynamic_window",
      "    lo_v, hi_v = max(0.0, v - acc_v * sim_time), min(max_v, v + acc_v * sim_time)\n"
      "    lo_w, hi_w = max(-max_w, w - acc_w * sim_time), min(max_w, w + acc_w * sim_time)\n",
