@@ -79,8 +79,25 @@ def explain(exercise: Exercise, case: Case, got: Any) -> tuple[str, str] | None:
     return str(compare(expected, got, exercise.rtol, exercise.atol)), ""
 
 
+def harnessed(fn: Callable[..., Any], harness: str) -> Callable[..., Any]:
+    """``fn`` run by a closed-loop harness (``module:function``, e.g. a simulated episode):
+    ``harness(fn, *case.args)``."""
+    import importlib
+
+    module, _, name = harness.partition(":")
+    run = getattr(importlib.import_module(module), name)
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        return run(fn, *args, **kwargs)
+
+    return call
+
+
 def judge(exercise: Exercise, case: Case, got: Any) -> CaseResult:
     """Compare one output with the reference's, both computed in this process."""
+    if exercise.harness and hasattr(got, "passed"):   # a closed-loop episode's result
+        return CaseResult(case.name, bool(got.passed), "passed" if got.passed else "wrong",
+                          "" if got.passed else str(got.message))
     verdict = explain(exercise, case, got)
     if verdict is None:
         return CaseResult(case.name, True, "passed")
@@ -92,8 +109,6 @@ def run_case(exercise: Exercise, fn: Callable[..., Any], case: Case) -> CaseResu
     """One public case: the student's function with the references refusing, then the
     verdict (computed outside that scope, with the real references)."""
     if exercise.harness:                       # closed loop: the harness runs fn
-        from grader.worker import harnessed
-
         fn = harnessed(fn, exercise.harness)
     try:
         got = guard.call_refusing(fn, *case.args, **case.kwargs)
@@ -139,16 +154,39 @@ class Checker:
         failed = [r for r in results if not r.passed]
         label = f" ({fn.__name__} checked as {ex.function})" if fn.__name__ != ex.function else ""
         if not failed:
-            print(f"✓ {ex.id}{label}: all {len(results)} public cases pass "
-                  f"({ex.points:g} points when graded, with hidden cases too)")
+            points = "point" if ex.points == 1 else "points"
+            print(f"✓ {ex.id}{label}: all {len(results)} public "
+                  f"{'case passes' if len(results) == 1 else 'cases pass'} "
+                  f"({ex.points:g} {points} when graded, with hidden cases too)")
             return
         shown = "\n".join(f"  case '{r.case}': {r.message}" for r in failed[:SHOWN_FAILURES])
         more = len(failed) - SHOWN_FAILURES
+        upstream = self._upstream(ex, sys._getframe(1).f_globals)
         verdict = (f"✗ {ex.id}{label}: {len(failed)} of {len(results)} public cases fail.\n"
-                   f"{shown}" + (f"\n  … and {more} more" if more > 0 else ""))
+                   f"{shown}" + (f"\n  … and {more} more" if more > 0 else "")
+                   + (f"\n  {upstream}" if upstream else ""))
         print(verdict)
         if os.environ.get("NBGRADER_EXECUTION") == "autograde" and not label:
             raise AssertionError(verdict)  # nbgrader scores a test cell by whether it raises
+
+
+    def _upstream(self, ex: Exercise, namespace: dict[str, Any]) -> str:
+        """"your `beam_angles` fails its own check: fix it first" when an earlier exercise
+        this one uses (``Exercise.uses``) fails its public cases in the notebook."""
+        wrong = []
+        for name in ex.uses:
+            fn = namespace.get(name)
+            try:
+                upstream = self.spec.exercise(name)
+            except KeyError:
+                continue
+            if callable(fn) and not all(run_case(upstream, fn, c).passed
+                                        for c in upstream.public):
+                wrong.append(f"`{name}`")
+        if not wrong:
+            return ""
+        return (f"your {' and '.join(wrong)} {'fails its' if len(wrong) == 1 else 'fail their'} "
+                f"own check: fix {'it' if len(wrong) == 1 else 'them'} first")
 
 
 def checker(lab: str | int) -> Checker:

@@ -21,11 +21,12 @@ from typing import Any
 
 from grader import bundle, grade, release
 from grader.feedback import write_feedback
+from grader.grade import close_servers
 from grader.gradebook import grade_class
 from grader.results import STATUSES, SubmissionResult, display_points
 from grader.sandbox import SandboxUnavailable, detect_layer
 from grader.spec import LabSpec, load_lab, normalise_lab, read_secret
-from grader.submissions import find_submissions
+from grader.submissions import clean_text, find_submissions
 
 NO_ISOLATION = (
     "this machine offers only the rlimits sandbox layer (bubblewrap is missing and unshare "
@@ -118,7 +119,7 @@ def _grade(args: argparse.Namespace) -> int:
         return 2
     found = find_submissions([Path(p) for p in args.submissions], lab)
     for path, why in found.skipped:
-        print(f"skipped {path}: {why}")
+        print(f"skipped {clean_text(str(path))}: {why}")
     if not found.submissions:
         print("no notebooks of this lab found in the given submissions", file=sys.stderr)
         return 2
@@ -137,7 +138,8 @@ def _run_class(args: argparse.Namespace, spec: LabSpec, submissions: Sequence[An
     try:
         results = grade_class(submissions, spec, out, json_path, jobs=args.jobs,
                               timeout=args.timeout, memory_mb=args.memory, secret=secret,
-                              dask_address=args.dask, progress=progress)
+                              dask_address=args.dask, progress=progress,
+                              retry=tuple(args.retry or ()))
     except KeyboardInterrupt as exc:
         progress.close()
         name = str(exc) or "SIGINT"
@@ -150,6 +152,13 @@ def _run_class(args: argparse.Namespace, spec: LabSpec, submissions: Sequence[An
     print("\n".join(summary(results, spec.max_points)))
     print(f"graded {progress.counts['graded']}, kept {progress.counts['reused']} unchanged; "
           f"wrote {out} and {json_path}")
+    close_servers()
+    ungraded = [r for r in results if r.status in ("malformed notebook", "refused", "duplicate")]
+    if ungraded:
+        kinds = Counter(r.status for r in ungraded)
+        print(f"{len(ungraded)} rows have no notebook the grader could run "
+              f"({', '.join(f'{k}: {n}' for k, n in sorted(kinds.items()))}; each row's reason "
+              f"says why): {', '.join(r.student for r in ungraded)}")
     failed = [r.student for r in results if r.status == "grader error"]
     if failed:
         print(f"{len(failed)} rows are grader errors (the grader failed, not the student; "
@@ -196,6 +205,9 @@ def _add_grade(sub: Any) -> None:
                    help="memory limit per submission in MB (2048)")
     p.add_argument("--dask", metavar="ADDRESS",
                    help="send the submissions to this Dask scheduler instead of --jobs")
+    p.add_argument("--retry", nargs="+", metavar="STATUS", choices=STATUSES,
+                   help="also grade again the finished rows of these statuses (a re-run "
+                        "always retries 'grader error' rows; e.g. --retry crashed timeout)")
     p.add_argument("--allow-no-isolation", action="store_true",
                    help="grade even when only the rlimits layer works (a trusted class only)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,

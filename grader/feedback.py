@@ -92,7 +92,7 @@ def _exercise(exercise_id: str, ex: dict[str, Any], tol: dict[str, Any] | None) 
         for hint in sorted({_hint(m) for m in failing} - {""}):
             lines.append(f"  - {hint}")
         verdicts = sorted({m.partition(";")[0] for m in failing} - {"wrong output"})
-        for verdict in verdicts[:3]:  # fixed words: a time-out, an exception's type
+        for verdict in verdicts[:3]:  # fixed words: timed out, raised
             lines.append(f"  - {verdict}")
     return [*lines, ""]
 

@@ -30,10 +30,11 @@ from pathlib import Path
 from typing import Any
 
 from grader import sandbox
-from grader.grade import DEFAULT_MEMORY_MB, DEFAULT_TIMEOUT, grade_notebook
-from grader.results import SubmissionResult, display_points, exact_points
+from grader.grade import DEFAULT_MEMORY_MB, DEFAULT_TIMEOUT, grade_notebook, server_for
+from grader.results import ExerciseResult, SubmissionResult, display_points, exact_points
+from grader.sandbox import Limits
 from grader.spec import PRACTICE_SECRET, LabSpec, load_lab
-from grader.submissions import Submission, find_submissions
+from grader.submissions import Submission, clean_text, digest, find_submissions
 
 __all__ = ["GradebookError", "fingerprint", "grade_class", "gradebook_rows", "write_gradebook",
            "write_results"]
@@ -87,13 +88,6 @@ def _load_previous(results: Path, gradebook: Path, spec: LabSpec, stamp: str,
     return previous, False
 
 
-def _digest(path: Path) -> str:
-    try:
-        return hashlib.sha256(path.read_bytes()).hexdigest()
-    except OSError:
-        return ""
-
-
 def _as_submissions(items: Sequence[Path | Submission], lab: str) -> list[Submission]:
     out = []
     for item in items:
@@ -101,10 +95,27 @@ def _as_submissions(items: Sequence[Path | Submission], lab: str) -> list[Submis
             out.append(item)
         else:
             out.extend(find_submissions([Path(item)], lab).submissions)
-    names = [s.student for s in out]
-    if len(set(names)) != len(names):
-        find_submissions([s.path for s in out], lab)  # raises, naming the clash
-    return out
+    by_student: dict[str, list[Submission]] = {}
+    for s in out:
+        by_student.setdefault(s.student, []).append(s)
+    rows = []
+    for student, found in by_student.items():
+        if len(found) == 1:
+            rows.append(found[0])
+        else:  # given separately, still one row: never two for one student
+            names = ", ".join(clean_text(str(s.path)) for s in found)
+            rows.append(Submission(student, found[0].path, "duplicate",
+                                   f"{len(found)} notebooks of {lab} for {student}: {names} — "
+                                   f"keep one and grade again"))
+    return rows
+
+
+def _refused_row(s: Submission, spec: LabSpec, practice: bool) -> SubmissionResult:
+    """The row of a submission that is not graded at all: refused, duplicate, malformed."""
+    return SubmissionResult(s.student, clean_text(str(s.path)), s.status, s.reason,
+                            {ex.id: ExerciseResult(ex.id, 0.0, ex.points, "not graded",
+                                                   s.status) for ex in spec.exercises},
+                            practice=practice)
 
 
 class _Book:
@@ -137,8 +148,11 @@ class _Book:
 def _run_local(todo: list[Submission], book: _Book, jobs: int, options: dict[str, Any]) -> None:
     pool = ThreadPoolExecutor(max_workers=max(1, jobs))
     try:
+        server = server_for(book.spec, options["layer"], Limits(memory_mb=options["memory_mb"]),
+                            slots=max(8, jobs + 2))
         pending: dict[Future[SubmissionResult], Submission] = {
-            pool.submit(grade_notebook, s.path, book.spec, s.student, **options): s for s in todo}
+            pool.submit(grade_notebook, s.path, book.spec, s.student, server=server,
+                        **options): s for s in todo}
         for future in as_completed(pending):
             try:
                 result = future.result()
@@ -173,22 +187,28 @@ def grade_class(items: Sequence[Path | Submission], spec: LabSpec, gradebook: Pa
                 results: Path, jobs: int = 1, timeout: float = DEFAULT_TIMEOUT,
                 memory_mb: int = DEFAULT_MEMORY_MB, secret: str | None = None,
                 dask_address: str | None = None, progress: Progress | None = None,
-                layer: str | None = None) -> list[SubmissionResult]:
+                layer: str | None = None, retry: Sequence[str] = ()
+                ) -> list[SubmissionResult]:
     """Grade ``items`` (notebooks, or :class:`~grader.submissions.Submission` s) into
     ``gradebook`` (CSV) and ``results`` (JSON), resumably; returns this run's results in the
     order given. ``secret`` ``None`` is practice grading. ``progress(result, reused)`` is
     called as each submission finishes. Raises :class:`GradebookError` (before grading
-    anything) when the existing gradebook cannot be updated safely."""
+    anything) when the existing gradebook cannot be updated safely. Finished rows whose
+    notebook and set-up are unchanged are kept, except ``grader error`` rows and rows of the
+    statuses in ``retry``, which are graded again."""
     submissions = _as_submissions(items, spec.name)
     stamp = fingerprint(spec, secret, timeout, memory_mb)
     previous, reusable = _load_previous(results, gradebook, spec, stamp,
                                         {s.student for s in submissions})
     book = _Book(spec, gradebook, results, stamp, dict(previous), progress)
+    retried = {"grader error", *retry}
     todo = []
     for s in submissions:
         old = previous.get(s.student) if reusable else None
-        if old is not None and old.status != "grader error" and old.sha256 \
-                and old.sha256 == _digest(s.path):
+        if s.status:
+            book.finished(_refused_row(s, spec, secret is None))
+        elif old is not None and old.status not in retried and old.sha256 \
+                and old.sha256 == digest(s.path):
             book.finished(old, reused=True)
         else:
             todo.append(s)
@@ -197,7 +217,7 @@ def grade_class(items: Sequence[Path | Submission], spec: LabSpec, gradebook: Pa
     sandbox.resume()
     if dask_address:
         _run_dask(todo, book, dask_address, options)
-    else:
+    elif todo:
         _run_local(todo, book, jobs, options)
     with book.lock:
         book.write()
@@ -244,7 +264,8 @@ def write_gradebook(path: Path, results: Sequence[SubmissionResult], spec: LabSp
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=columns)
     writer.writeheader()
-    writer.writerows(gradebook_rows(results, spec))
+    writer.writerows([{k: clean_text(v) if isinstance(v, str) else v for k, v in row.items()}
+                      for row in gradebook_rows(results, spec)])
     _atomic_write(path, buffer.getvalue())
 
 
@@ -261,4 +282,15 @@ def write_results(path: Path, results: Sequence[SubmissionResult], spec: LabSpec
         "tolerances": {ex.id: {"rtol": ex.rtol, "atol": ex.atol} for ex in spec.exercises},
         "submissions": [r.to_dict() for r in results],
     }
-    _atomic_write(path, json.dumps(data, indent=1, ensure_ascii=False))
+    _atomic_write(path, json.dumps(_cleaned(data), indent=1, ensure_ascii=False))
+
+
+def _cleaned(value: Any) -> Any:
+    """``value`` with every string's lone surrogates escaped (always writable as UTF-8)."""
+    if isinstance(value, str):
+        return clean_text(value)
+    if isinstance(value, dict):
+        return {_cleaned(k): _cleaned(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_cleaned(v) for v in value]
+    return value

@@ -10,14 +10,10 @@ call through, so the lab's own cells (simulations, plots, the fusion filter) and
 internals keep working in an honest submission. The same rule holds in the notebook and while
 grading: a student whose code calls a reference sees ✗ at once, never ✓ and then 0.
 
-While grading, the sandbox also replaces each guarded module's *file* by :func:`stub_source`,
-so loading it by path, with ``importlib.util.spec_from_file_location`` or by reading and
-executing its source gives only a module that refuses; the real modules reach the worker
-through its request (see :mod:`grader.worker`).
-
-What this does not stop: code that digs the real function out of the interpreter's objects
-(closures, ``gc``, ``ctypes``) or runs it on a thread started before the call. That is
-deliberate cheating, left to the instructor's reading of flagged notebooks.
+This is the notebook's courtesy, not grading's defence: it shows a student at once that a
+reference will not count. While a notebook is *graded*, the references do not exist at all in
+its process — they are cut out of their modules (:mod:`grader.strip`) — so a closure dug out
+of a guard, a reload or a patched module finds nothing to run.
 """
 
 from __future__ import annotations
@@ -30,8 +26,7 @@ from collections.abc import Callable, Iterable
 from types import FrameType
 from typing import Any
 
-__all__ = ["call_refusing", "explanation", "install", "reference_name", "refusing",
-           "stub_source"]
+__all__ = ["call_refusing", "explanation", "install", "reference_name", "refusing"]
 
 MARK = "__kit_reference__"
 """attribute naming the reference a guard stands for."""
@@ -178,22 +173,3 @@ def reference_name(obj: Any) -> str | None:
     target = getattr(obj, "__func__", obj)
     name = getattr(target, MARK, None)
     return name if isinstance(name, str) else None
-
-
-STUB = """\"\"\"{module}: hidden while a submission of {lab} is graded.
-
-It holds the kit's references for the lab's exercises. The kit's modules the rest of the
-notebook uses keep working; an exercise must be solved with your own code.
-\"\"\"
-
-
-def __getattr__(name):
-    raise PermissionError({message!r})
-"""
-
-
-def stub_source(module: str, lab: str) -> str:
-    """The text a guarded module's file shows while a submission of ``lab`` is graded."""
-    message = (f"{module} holds the kit's references for {lab}'s exercises: while grading it "
-               f"cannot be loaded from its file; solve the exercise with your own code")
-    return STUB.format(module=module, lab=lab, message=message)

@@ -1,13 +1,12 @@
 """The ``unshare`` layer's file system: ``python -I -S grader/jail.py PLAN_FD -- COMMAND...``.
 
 Run as root inside the fresh mount, PID, network, IPC and UTS namespaces that ``unshare``
-made, before any of the submission's code: builds the sandbox's root from the plan that
-:func:`grader.sandbox.mount_plan` wrote to ``PLAN_FD`` (the same allow-list bubblewrap
-builds) and makes it read-only; then a child enters it, drops to the sandbox's own user id (no
-capabilities, no new privileges) and executes ``COMMAND`` there, while this first process
-stays outside as root, reaping orphans (as bubblewrap's own init does, so a fork bomb's dead
-processes stop counting against the process limit) and keeping the parent-death signal that
-kills the whole namespace when ``unshare`` dies.
+made: builds the sandbox's root from the plan that :func:`grader.sandbox.mount_plan` wrote to
+``PLAN_FD`` (the same allow-list bubblewrap builds) and makes it read-only; then a child enters
+it and executes ``COMMAND`` there — the grading server (:mod:`grader.zygote`), which stays
+root inside these namespaces to make each submission's own prison and drops each submission to
+a user of its own —, while this first process stays outside, reaping orphans and keeping the
+parent-death signal that kills the whole namespace when ``unshare`` dies.
 
 Standard library only, and run by path, so nothing of the kit is imported with root's rights.
 Host paths are opened (``O_PATH``) before anything is mounted and bound through
@@ -25,7 +24,6 @@ from typing import Any
 
 MS_RDONLY, MS_NOSUID, MS_NODEV, MS_NOEXEC = 1, 2, 4, 8
 MS_REMOUNT, MS_BIND, MS_REC, MS_PRIVATE = 32, 4096, 16384, 1 << 18
-PR_SET_NO_NEW_PRIVS = 38
 STAGE = "/tmp"
 ROOT = "/tmp/root"
 DEVICES = ("null", "zero", "full", "random", "urandom", "tty")
@@ -117,7 +115,6 @@ def build(plan: dict[str, Any]) -> None:
                 fh.write(base64.b64decode(item["blob"]) if item.get("blob") else
                          item["data"].encode("utf-8"))
             os.chmod(dest, item["mode"])
-            os.chown(dest, plan["uid"], plan["uid"])
         elif kind == "dev":
             _dev(dest, fds)
         elif kind == "proc":
@@ -125,20 +122,15 @@ def build(plan: dict[str, Any]) -> None:
             mount("proc", dest, "proc", MS_NOSUID | MS_NODEV | MS_NOEXEC)
     for fd in fds.values():
         os.close(fd)
-    os.chown(ROOT + plan["home"], plan["uid"], plan["uid"])
     mount(None, ROOT, None, MS_REMOUNT | MS_RDONLY | MS_NOSUID | MS_NODEV)
 
 
 def enter(plan: dict[str, Any]) -> None:
-    """Into the new root, as the sandbox's user, for good."""
+    """Into the new root, for good. The grading server started there stays root (inside
+    these namespaces) to make each submission's prison; the submissions drop to users of
+    their own (:mod:`grader.zygote`)."""
     os.chroot(ROOT)
     os.chdir(plan["home"])
-    uid = plan["uid"]
-    os.setgroups([])
-    os.setresgid(uid, uid, uid)
-    os.setresuid(uid, uid, uid)  # from root to another user: every capability is dropped
-    if _libc.prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0:
-        raise OSError(ctypes.get_errno(), "prctl(PR_SET_NO_NEW_PRIVS)")
 
 
 def main(argv: list[str]) -> int:

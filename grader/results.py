@@ -13,8 +13,10 @@ __all__ = ["STATUSES", "CaseOutcome", "ExerciseResult", "SubmissionResult", "dis
            "exact_points"]
 
 STATUSES = ("ok", "timeout", "memory", "crashed", "output limit", "malformed notebook",
-            "grader error")
-"""a submission's status; ``grader error`` means the grader failed, not the student."""
+            "refused", "duplicate", "grader error")
+"""a submission's status; ``grader error`` means the grader failed, not the student (a
+re-run retries it); ``refused`` is a file the grader does not read (a link, a device, a FIFO);
+``duplicate`` is two notebooks of the lab for one student."""
 
 
 def display_points(value: float) -> str:

@@ -32,10 +32,9 @@ from __future__ import annotations
 import base64
 import ctypes
 import functools
-import importlib.util
+import importlib
 import json
 import os
-import resource
 import secrets
 import shutil
 import signal
@@ -43,7 +42,7 @@ import subprocess
 import sys
 import tempfile
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -113,11 +112,15 @@ def _real(path: str | Path) -> str:
 
 
 def _package_dirs() -> list[str]:
-    """Where the kit's packages are installed (a folder holding ``__init__.py`` each)."""
+    """Where the kit's packages are installed (a folder holding ``__init__.py`` each): the
+    packages as imported, so that a folder of the same name elsewhere on ``sys.path`` (the
+    tests mirror the packages' names) is never taken for them."""
     dirs: list[str] = []
     for name in PACKAGES:
-        spec = importlib.util.find_spec(name)
-        origin = spec.origin if spec is not None else None
+        try:
+            origin = getattr(importlib.import_module(name), "__file__", None)
+        except ImportError:
+            continue
         if origin and origin.endswith("__init__.py"):
             dirs.append(_real(Path(origin).parent))
     return dirs
@@ -150,11 +153,15 @@ def _system_mounts() -> list[Mount]:
     return mounts
 
 
-def _etc_passwd(uid: int) -> list[Mount]:
-    passwd = (f"root:x:0:0:root:/root:/usr/sbin/nologin\n"
-              f"nobody:x:65534:65534:nobody:/nonexistent:/usr/sbin/nologin\n"
-              f"student:x:{uid}:{uid}:student:{HOME}:/usr/sbin/nologin\n")
-    group = f"root:x:0:\nnogroup:x:65534:\nstudent:x:{uid}:\n"
+def _etc_passwd(uids: Sequence[int]) -> list[Mount]:
+    """Accounts for the sandbox: root, nobody, and one ``studentNNN`` per user id its
+    submissions may run as (a program asking who it is gets an answer)."""
+    passwd = ("root:x:0:0:root:/root:/usr/sbin/nologin\n"
+              "nobody:x:65534:65534:nobody:/nonexistent:/usr/sbin/nologin\n"
+              + "".join(f"student{i:03d}:x:{uid}:{uid}:student:{HOME}:/usr/sbin/nologin\n"
+                        for i, uid in enumerate(uids)))
+    group = "root:x:0:\nnogroup:x:65534:\n" + "".join(
+        f"student{i:03d}:x:{uid}:\n" for i, uid in enumerate(uids))
     return [Mount("data", "/etc/passwd", data=passwd), Mount("data", "/etc/group", data=group)]
 
 
@@ -167,56 +174,98 @@ def _font_cache() -> Path | None:
     return found[-1] if found else None
 
 
-def mount_plan(uid: int, limits: Limits, files: Mapping[str, str] | None = None,
-               stubs: Mapping[str, str] | None = None) -> list[Mount]:
+SHIM = '''"""The grader as a graded submission sees it: ``check`` does nothing here.
+
+While a notebook is graded, its check cells are not run and nothing of the grader's
+specifications, references or hidden cases is in this process; ``checker`` only keeps a
+notebook's setup cell working.
+"""
+
+
+def checker(lab):
+    def check(fn, exercise=None):
+        return None
+
+    return check
+'''
+SANDBOX_MODULES = ("frames.py", "runner.py", "seccomp.py", "serialize.py", "zygote.py")
+"""the grader's modules a sandbox holds: the submission's side of the questions, and none of
+the specifications, references, hidden cases or scoring."""
+
+
+def grader_dir() -> str:
+    return _real(Path(__file__).parent)
+
+
+def cache_folders(roots: Sequence[str]) -> list[str]:
+    """The ``__pycache__`` folders of the kit's packages that hold numba's compiled code
+    (each submission gets a private, writable copy: numba uses a cache only where it could
+    write; without it the simulated lidar would be compiled again in every sandbox)."""
+    folders = []
+    for root in roots:
+        if Path(root).name not in PACKAGES:
+            continue
+        folders += [str(c) for c in sorted(Path(root).rglob("__pycache__"))
+                    if any(c.glob("*.nbi"))]
+    return folders
+
+
+def mount_plan(uids: Sequence[int], limits: Limits,
+               stripped: Mapping[str, str] | None = None) -> list[Mount]:
     """The sandbox's file system, in the order it is built.
 
-    ``files`` are written into the home directory (name → text: the notebook's copy);
-    ``stubs`` replace host files (path → text: the graded references' modules). Compiled
-    copies of the replaced modules are hidden too.
+    The system's libraries, the Python installation and the kit's packages, read-only; in
+    place of the grader's package a folder holding :data:`SHIM` as its ``__init__`` and only
+    :data:`SANDBOX_MODULES`; ``stripped`` (host path → text) replaces the modules that hold
+    the lab's references, whose compiled copies (Python's and numba's) are hidden too.
     """
     size = limits.scratch_mb * 1024 * 1024
-    plan = _system_mounts() + _etc_passwd(uid)
+    plan = _system_mounts() + _etc_passwd(uids)
     plan += [Mount("dev", "/dev"), Mount("proc", "/proc"),
              Mount("tmpfs", "/tmp", size=size, mode=0o1777),
              Mount("tmpfs", "/dev/shm", size=size, mode=0o1777),
              Mount("tmpfs", HOME, size=size, mode=0o777)]
     roots = ["/usr"]
+    grader = grader_dir()
     for path in [*_python_dirs(), *_package_dirs()]:
+        if path == grader:
+            continue
         if not _covered(path, roots):
             plan.append(Mount("bind", path, path))
             roots.append(path)
-    for name, text in (files or {}).items():
-        plan.append(Mount("file", f"{HOME}/{name}", data=text, mode=0o644))
+    plan.append(Mount("tmpfs", grader, size=1 << 20, mode=0o755))
+    plan.append(Mount("data", f"{grader}/__init__.py", data=SHIM, mode=0o444))
+    plan += [Mount("bind", f"{grader}/{name}", f"{grader}/{name}") for name in SANDBOX_MODULES]
     plan.append(Mount("dir", MPL_DIR, mode=0o777))
     font_cache = _font_cache()
-    if font_cache is not None:  # else matplotlib rebuilds it in every sandbox (≈ 0.5 s)
+    if font_cache is not None:  # else matplotlib rebuilds it in the sandbox (≈ 0.5 s)
         plan.append(Mount("file", f"{MPL_DIR}/{font_cache.name}",
                           data=font_cache.read_text(encoding="utf-8"), mode=0o644))
-    plan += _numba_caches(roots[1:], size)
-    for path, text in (stubs or {}).items():
+    hidden: set[str] = set()
+    for path, text in (stripped or {}).items():
         plan.append(Mount("data", path, data=text, mode=0o444))
         cache = Path(path).parent / "__pycache__"
-        for compiled in sorted(cache.glob(f"{Path(path).stem}.*.pyc")) if cache.is_dir() else []:
-            plan.append(Mount("data", str(compiled), data="", mode=0o444))
+        stem = Path(path).stem
+        compiled = sorted(cache.glob(f"{stem}.*")) if cache.is_dir() else []
+        plan += [Mount("data", str(f), data="", mode=0o444) for f in compiled if f.is_file()]
+        hidden |= {str(f) for f in compiled}
+    plan += _numba_caches(roots[1:], size, hidden)
     return _with_parents(plan)
 
 
-def _numba_caches(roots: Sequence[str], size: int) -> list[Mount]:
-    """numba reads its compiled functions from beside their source only where it could also
-    write: each ``__pycache__`` of the kit's packages holding numba's index becomes a private
-    tmpfs with copies of its files, so the simulated lidar is not compiled again in every
-    sandbox (≈ 4 s)."""
+def _numba_caches(roots: Sequence[str], size: int, hidden: set[str]) -> list[Mount]:
+    """numba picks where a compiled function's cache lives when the module is imported, and
+    uses the folder beside the source only if it can write there: each ``__pycache__`` of the
+    kit's packages holding numba's index becomes a writable tmpfs with copies of its files
+    (those of stripped modules left out), so the grading server's imported kit keeps finding
+    its compiled code; each submission then gets its own fresh copy
+    (:mod:`grader.zygote`)."""
     mounts = []
-    for root in roots:
-        if Path(root).name not in PACKAGES:
-            continue
-        for cache in sorted(Path(root).rglob("__pycache__")):
-            if not any(cache.glob("*.nbi")):
-                continue
-            mounts.append(Mount("tmpfs", str(cache), size=size, mode=0o777))
-            mounts += [Mount("file", str(f), blob=f.read_bytes(), mode=0o644)
-                       for f in sorted(cache.iterdir()) if f.is_file()]
+    for folder in cache_folders(roots):
+        mounts.append(Mount("tmpfs", folder, size=size, mode=0o755))
+        mounts += [Mount("file", str(f), blob=f.read_bytes(), mode=0o644)
+                   for f in sorted(Path(folder).iterdir())
+                   if f.is_file() and str(f) not in hidden]
     return mounts
 
 
@@ -241,7 +290,7 @@ def _with_parents(plan: list[Mount]) -> list[Mount]:
 
 # ------------------------------------------------------------------ which layer
 
-NEEDS = {"bwrap": ("bwrap", "setpriv"), "unshare": ("unshare",)}
+NEEDS = {"bwrap": ("bwrap",), "unshare": ("unshare",)}
 
 
 @functools.cache
@@ -253,9 +302,9 @@ def layer_works(layer: str) -> bool:
     needed = NEEDS.get(layer)
     if needed is None or os.geteuid() != 0 or not all(shutil.which(n) for n in needed):
         return False
-    box = Sandbox.create(layer, Limits(), {})
+    box = Sandbox.create(layer, Limits(), {}, slots=1)
     try:
-        proc = box.start([sys.executable, "-I", "-B", "-c", "import grader.worker"],
+        proc = box.start([sys.executable, "-I", "-B", "-c", "import grader.zygote"],
                          stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                          stderr=subprocess.DEVNULL)
     except (OSError, subprocess.SubprocessError, Interrupted):
@@ -354,31 +403,37 @@ def _remove_stale_scratch() -> None:
             pass  # alive, another user's
 
 
+BWRAP_CAPS = ("CAP_SYS_ADMIN", "CAP_SETUID", "CAP_SETGID", "CAP_KILL", "CAP_CHOWN",
+              "CAP_FOWNER", "CAP_DAC_OVERRIDE")
+"""what the grading server keeps inside bubblewrap: enough to make each submission's
+namespaces and mounts and to drop it to its own user id — the submission itself keeps none."""
+
+
 @dataclass
 class Sandbox:
-    """How to start one command inside a layer, with a file system built from ``plan``."""
+    """How to start the grading server (:mod:`grader.zygote`) inside a layer, on a file
+    system built from ``plan``; it stays root there and makes each submission's prison."""
 
     layer: str
     limits: Limits
     plan: list[Mount]
     env: dict[str, str]
-    uid: int = 0
+    uids: tuple[int, ...] = ()
+    """the user ids this sandbox's submissions run as (one per submission at a time)."""
     scratch: Path | None = None
     """the rlimits layer's working directory (a host folder)."""
     _fds: list[int] = field(default_factory=list)
 
     @classmethod
     def create(cls, layer: str, limits: Limits, env: Mapping[str, str],
-               files: Mapping[str, str] | None = None,
-               stubs: Mapping[str, str] | None = None) -> Sandbox:
-        uid = UID_RANGE[0] + secrets.randbelow(UID_RANGE[1] - UID_RANGE[0])
-        plan = mount_plan(uid, limits, files, stubs) if layer in ISOLATING else []
-        box = cls(layer, limits, plan, {"PATH": "/usr/bin:/bin", **env}, uid)
+               stripped: Mapping[str, str] | None = None, slots: int = 8) -> Sandbox:
+        start = UID_RANGE[0] + secrets.randbelow(UID_RANGE[1] - UID_RANGE[0] - 4096)
+        uids = tuple(start + i for i in range(max(1, slots)))
+        plan = mount_plan(uids, limits, stripped) if layer in ISOLATING else []
+        box = cls(layer, limits, plan, {"PATH": "/usr/bin:/bin", **env}, uids)
         if layer == "rlimits":
             _remove_stale_scratch()
             box.scratch = Path(tempfile.mkdtemp(prefix=f"kit-grade-{os.getpid()}-"))
-            for name, text in (files or {}).items():
-                (box.scratch / name).write_text(text, encoding="utf-8")
         box.env.update(HOME=box.home, TMPDIR=str(box.scratch) if box.scratch else "/tmp")
         return box
 
@@ -398,6 +453,8 @@ class Sandbox:
     def _bwrap_args(self) -> list[str]:
         args = ["bwrap", "--unshare-ipc", "--unshare-pid", "--unshare-net", "--unshare-uts",
                 "--unshare-cgroup-try", "--die-with-parent", "--new-session", "--clearenv"]
+        for cap in BWRAP_CAPS:
+            args += ["--cap-add", cap]
         for m in self.plan:
             if m.kind == "bind":
                 args += ["--ro-bind", m.source, m.dest]
@@ -418,11 +475,10 @@ class Sandbox:
         args += ["--remount-ro", "/", "--chdir", HOME]
         for key, value in self.env.items():
             args += ["--setenv", key, value]
-        return [*args, "setpriv", "--reuid", str(self.uid), "--regid", str(self.uid),
-                "--clear-groups", "--no-new-privs", "--inh-caps=-all", "--bounding-set=-all"]
+        return args
 
     def _unshare_args(self) -> list[str]:
-        plan = {"uid": self.uid, "home": HOME, "env": self.env,
+        plan = {"home": HOME, "env": self.env,
                 "mounts": [{**asdict(m), "blob": base64.b64encode(m.blob).decode()}
                            for m in self.plan]}
         fd = self._memfd(json.dumps(plan))
@@ -439,22 +495,6 @@ class Sandbox:
             return [*self._unshare_args(), *argv]
         return list(argv)
 
-    def preexec(self) -> Callable[[], None]:
-        limits = self.limits
-        rlimits_layer = self.layer == "rlimits"
-
-        def apply() -> None:
-            _parent_death_signal()
-            memory = limits.memory_mb * 1024 * 1024
-            resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
-            resource.setrlimit(resource.RLIMIT_CPU, (limits.cpu_seconds, limits.cpu_seconds + 5))
-            size = limits.file_mb * 1024 * 1024
-            resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
-            resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-            if not rlimits_layer:  # binds the sandbox's own user id (never root's)
-                resource.setrlimit(resource.RLIMIT_NPROC, (limits.processes, limits.processes))
-        return apply
-
     def start(self, argv: Sequence[str], stdin: Any, stdout: Any, stderr: Any,
               pass_fds: Sequence[int] = ()) -> subprocess.Popen[bytes]:
         """Start ``argv`` in the sandbox as its own process group, registered for
@@ -462,13 +502,12 @@ class Sandbox:
         if _STOPPING.is_set():
             raise Interrupted("grading is being stopped")
         command = self.command(argv)
-        env = self.env if self.layer == "rlimits" else {
-            "PATH": "/usr/bin:/bin", "KIT_GRADER_PID": self.env.get("KIT_GRADER_PID", "")}
+        env = self.env if self.layer == "rlimits" else {"PATH": "/usr/bin:/bin"}
         try:
             proc = subprocess.Popen(command, stdin=stdin, stdout=stdout, stderr=stderr,
                                     cwd=self.home if self.scratch else "/", env=env,
                                     pass_fds=(*pass_fds, *self._fds), start_new_session=True,
-                                    preexec_fn=self.preexec())
+                                    preexec_fn=_parent_death_signal)
         finally:
             for fd in self._fds:
                 os.close(fd)

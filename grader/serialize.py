@@ -31,8 +31,13 @@ class DecodeError(ValueError):
     """Bytes that are not a well-formed encoded value."""
 
 
-def encode(value: Any, depth: int = 0) -> Any:
-    """Turn ``value`` into JSON-compatible data with type tags."""
+BLOB_ELEMENTS = 64
+"""arrays with more elements than this travel as raw bytes when a blob list is given."""
+
+
+def encode(value: Any, depth: int = 0, blobs: list[bytes] | None = None) -> Any:
+    """Turn ``value`` into JSON-compatible data with type tags. With ``blobs``, the data of
+    larger arrays is appended there as raw bytes (a frame's binary part) instead of a list."""
     if depth > MAX_DEPTH:
         raise EncodeError("value is nested too deeply")
     if value is None or isinstance(value, (bool, str)):
@@ -55,31 +60,36 @@ def encode(value: Any, depth: int = 0) -> Any:
                               f"(expected numbers)")
         if value.size > MAX_ELEMENTS:
             raise EncodeError(f"array of {value.size} elements is too large to grade")
+        if blobs is not None and value.size > BLOB_ELEMENTS:
+            blobs.append(np.ascontiguousarray(value).tobytes())
+            return {"__ndarray__": {"blob": len(blobs) - 1}, "dtype": value.dtype.str,
+                    "shape": list(value.shape)}
         flat = [encode(v, depth + 1) for v in value.ravel().tolist()]
         return {"__ndarray__": flat, "dtype": value.dtype.str, "shape": list(value.shape)}
     if isinstance(value, tuple):
-        return {"__tuple__": [encode(v, depth + 1) for v in value]}
+        return {"__tuple__": [encode(v, depth + 1, blobs) for v in value]}
     if isinstance(value, list):
-        return [encode(v, depth + 1) for v in value]
+        return [encode(v, depth + 1, blobs) for v in value]
     if isinstance(value, dict):
         if not all(isinstance(k, str) for k in value):
             raise EncodeError("only dicts with string keys can be graded")
-        return {"__dict__": {k: encode(v, depth + 1) for k, v in value.items()}}
+        return {"__dict__": {k: encode(v, depth + 1, blobs) for k, v in value.items()}}
     if isinstance(value, msgs.Message) and type(value) in msgs.MESSAGE_TYPES.values():
-        fields = {f.name: encode(getattr(value, f.name), depth + 1)
+        fields = {f.name: encode(getattr(value, f.name), depth + 1, blobs)
                   for f in dataclasses.fields(value)}  # type: ignore[arg-type]
         return {"__msg__": value.ROS_TYPE, "fields": fields}
     raise EncodeError(f"a value of type {type(value).__name__} cannot be graded")
 
 
-def decode(data: Any, depth: int = 0) -> Any:
-    """Inverse of :func:`encode`; raises :class:`DecodeError` on anything unexpected."""
+def decode(data: Any, depth: int = 0, blobs: list[bytes] | None = None) -> Any:
+    """Inverse of :func:`encode` (``blobs``: the frame's binary part); raises
+    :class:`DecodeError` on anything unexpected."""
     if depth > MAX_DEPTH:
         raise DecodeError("value is nested too deeply")
     if data is None or isinstance(data, (bool, int, float, str)):
         return data
     if isinstance(data, list):
-        return [decode(v, depth + 1) for v in data]
+        return [decode(v, depth + 1, blobs) for v in data]
     if not isinstance(data, dict) or len(data) == 0:
         raise DecodeError(f"unexpected encoded value of type {type(data).__name__}")
     try:
@@ -102,25 +112,41 @@ def decode(data: Any, depth: int = 0) -> Any:
             if dtype.kind not in "biuf":
                 raise DecodeError(f"bad dtype {dtype}")
             shape = tuple(int(s) for s in data["shape"])
+            if any(n < 0 for n in shape) or math.prod(shape) > MAX_ELEMENTS:
+                raise DecodeError("array size does not match its shape")
             flat = data["__ndarray__"]
+            if isinstance(flat, dict):
+                return _array_from_blob(flat, dtype, shape, blobs)
             if len(flat) > MAX_ELEMENTS or math.prod(shape) != len(flat):
                 raise DecodeError("array size does not match its shape")
             values = [decode(v, depth + 1) for v in flat]
             return np.array(values, dtype=dtype).reshape(shape)
         if "__tuple__" in data:
-            return tuple(decode(v, depth + 1) for v in data["__tuple__"])
+            return tuple(decode(v, depth + 1, blobs) for v in data["__tuple__"])
         if "__dict__" in data:
-            return {str(k): decode(v, depth + 1) for k, v in data["__dict__"].items()}
+            return {str(k): decode(v, depth + 1, blobs) for k, v in data["__dict__"].items()}
         if "__msg__" in data:
             cls = msgs.MESSAGE_TYPES.get(data["__msg__"])
             if cls is None:
                 raise DecodeError(f"unknown message type {data['__msg__']!r}")
-            return cls(**{str(k): decode(v, depth + 1) for k, v in data["fields"].items()})
+            return cls(**{str(k): decode(v, depth + 1, blobs)
+                          for k, v in data["fields"].items()})
     except DecodeError:
         raise
     except (KeyError, TypeError, ValueError, OverflowError) as exc:
         raise DecodeError(f"malformed encoded value: {exc}") from None
     raise DecodeError(f"unknown tag in encoded value: {sorted(data)[:3]}")
+
+
+def _array_from_blob(ref: dict[str, Any], dtype: np.dtype[Any], shape: tuple[int, ...],
+                     blobs: list[bytes] | None) -> np.ndarray:
+    index = ref.get("blob")
+    if blobs is None or not isinstance(index, int) or not 0 <= index < len(blobs):
+        raise DecodeError("an array refers to data the frame does not hold")
+    data = blobs[index]
+    if len(data) != math.prod(shape) * dtype.itemsize:
+        raise DecodeError("array size does not match its shape")
+    return np.frombuffer(data, dtype=dtype).reshape(shape).copy()
 
 
 def dumps(value: Any) -> str:

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 import pymunk
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry, kinematics, msgs
 from kit.control import DCMotor
@@ -200,6 +200,9 @@ class _Person:
     """The alcove this person is stepping into, waiting in or leaving (-1: none)."""
     stage: int = 0
     """1: to its front, 2: into it, 3: waiting, 4: back out to its front."""
+    scripted: bool = False
+    """moved only by :meth:`Simulation.move_person` (a scenario's bystander), never by the
+    walking rules."""
 
 
 
@@ -408,6 +411,8 @@ class Simulation:
                     for r in self.robots]
         velocities = [r.world_velocity for r in self.robots]
         for p in self.people:
+            if p.scripted:
+                continue
             px, py = p.body.position
             if p.alcove >= 0:
                 self._walk_aside(p, px, py, robots, velocities, outlines)
@@ -781,6 +786,36 @@ class Simulation:
         ground_speed = np.array([v_axle + w * half, v_axle - w * half])
         return GroundTruth(self.time, r.pose.copy(), r.velocity.copy(), rim - ground_speed,
                            self.world.in_oil(float(r.pose[0]), float(r.pose[1])))
+
+    def add_bystander(self, position: ArrayLike) -> int:
+        """A person standing at ``position`` [m] who moves only when a scenario says so
+        (:meth:`move_person`): someone who steps into a robot's way and waits there. Returns
+        their index among :meth:`people_positions`."""
+        x, y = (float(v) for v in np.asarray(position, dtype=float).reshape(2))
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError(f"a bystander needs a finite (x, y) position; got {position!r}")
+        body = pymunk.Body(70.0, float("inf"))
+        body.position = (x, y)
+        shape = pymunk.Circle(body, PERSON_RADIUS)
+        shape.collision_type = PERSON
+        shape.friction = 0.5
+        ground = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        joint = pymunk.PivotJoint(body, ground, (0.0, 0.0), (0.0, 0.0))
+        joint.max_bias = 0.0
+        joint.max_force = 70.0 * 1.5
+        self.space.add(body, shape, ground, joint)
+        self.people.append(_Person(body, ground, np.array([[x, y]]), 0, 1, 0.0, scripted=True))
+        return len(self.people) - 1
+
+    def move_person(self, index: int, velocity: ArrayLike) -> None:
+        """Set a bystander's walking velocity [m/s] (at most walking speed) until told
+        otherwise."""
+        person = self.people[index]
+        if not person.scripted:
+            raise ValueError(f"person {index} walks by the simulator's rules; only a "
+                             f"bystander (add_bystander) is moved by a scenario")
+        vx, vy = (float(v) for v in np.asarray(velocity, dtype=float).reshape(2))
+        person.ground.velocity = _at_most_walking_speed(vx, vy)
 
     def people_positions(self) -> FloatArray:
         """(P, 2) positions of the pedestrians [m] (ground truth)."""

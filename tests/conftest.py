@@ -39,3 +39,36 @@ def _corrupt(frame: bytes, data: Any) -> bytes:
 def corrupt() -> Callable[[bytes, Any], bytes]:
     """The parsers' fuzz tests share one way of corrupting a frame."""
     return _corrupt
+
+
+def solved_release(lab: str, dest: Path, old: str | None = None, new: str = "",
+                   extra: tuple[str, ...] = ()) -> Path:
+    """The released notebook of ``lab`` with the solution's exercise cells put in, as an
+    honest student hands it in (the release's cell metadata kept); with ``old``, that text
+    replaced by ``new`` in the one cell holding it (a student's mistake); ``extra`` cells
+    added at the end as a student would add them."""
+    import nbformat
+
+    number = lab[-2:]
+    (released,) = (ROOT / "labs").glob(f"{number}-*.ipynb")
+    (solution,) = (ROOT / "solutions").glob(f"{number}-*.ipynb")
+    nb = nbformat.read(released, as_version=4)
+    answers = {c.get("id"): c.source for c in nbformat.read(solution, as_version=4).cells
+               if c.cell_type == "code" and "### BEGIN SOLUTION" in c.source}
+    for cell in nb.cells:
+        if cell.get("id") in answers:
+            cell.source = answers[cell.get("id")]
+    if old is not None:
+        hits = [c for c in nb.cells if c.cell_type == "code" and old in c.source]
+        assert len(hits) == 1, f"{old!r} must occur in exactly one cell of {released.name}"
+        hits[0].source = hits[0].source.replace(old, new)
+    nb.cells += [nbformat.v4.new_code_cell(source) for source in extra]
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    nbformat.write(nb, dest)
+    return dest
+
+
+@pytest.fixture(scope="session")
+def solved():
+    """:func:`solved_release`: an honest (or deliberately mistaken) submission of a lab."""
+    return solved_release

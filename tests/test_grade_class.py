@@ -30,22 +30,17 @@ SWAP = ("return np.asarray(wheel_speeds, dtype=float) @ J.T",
         "return np.asarray(wheel_speeds, dtype=float)[..., ::-1] @ J.T")
 
 
-def make_class(folder: Path, count: int) -> dict[str, str]:
-    """``count`` submissions cycling through a solution, an untouched lab and a swapped-wheel
-    bug; returns student → kind."""
+def make_class(folder: Path, count: int, solved) -> dict[str, str]:
+    """``count`` submissions cycling through a solved release, an untouched one and one with
+    a swapped-wheel bug; returns student → kind."""
     folder.mkdir(parents=True)
-    buggy = nbformat.read(SOLUTION, as_version=4)
-    for cell in buggy.cells:
-        if cell.cell_type == "code" and SWAP[0] in cell.source:
-            cell.source = cell.source.replace(*SWAP)
+    honest = solved("lab01", folder.parent / "honest.ipynb")
+    buggy = solved("lab01", folder.parent / "buggy.ipynb", *SWAP)
     kinds = {}
     for i in range(count):
         kind = ("solution", "untouched", "swapped")[i % 3]
         path = folder / f"student{i:03d}.ipynb"
-        if kind == "swapped":
-            nbformat.write(buggy, path)
-        else:
-            shutil.copy(SOLUTION if kind == "solution" else LAB, path)
+        shutil.copy({"solution": honest, "untouched": LAB, "swapped": buggy}[kind], path)
         kinds[path.stem] = kind
     return kinds
 
@@ -56,8 +51,8 @@ def read_rows(path: Path) -> dict[str, dict[str, str]]:
 
 
 @pytest.mark.slow
-def test_a_class_of_100_grades_correctly_and_resumes_after_an_interruption(tmp_path):
-    kinds = make_class(tmp_path / "class", 100)
+def test_a_class_of_100_grades_correctly_and_resumes_after_an_interruption(tmp_path, solved):
+    kinds = make_class(tmp_path / "class", 100, solved)
     out = tmp_path / "gradebook.csv"
     command = [sys.executable, "-m", "grader", "grade", str(tmp_path / "class"), "--lab", "01",
                "--out", str(out), "--jobs", "2"]
@@ -93,16 +88,16 @@ def test_a_class_of_100_grades_correctly_and_resumes_after_an_interruption(tmp_p
     third = subprocess.run(command, capture_output=True, text=True, timeout=600, check=True,
                            env=env)
     assert "graded 0, kept 100 unchanged" in third.stdout
-    shutil.copy(SOLUTION, tmp_path / "class" / "student001.ipynb")  # was untouched
+    shutil.copy(tmp_path / "honest.ipynb", tmp_path / "class" / "student001.ipynb")  # untouched
     fourth = subprocess.run(command, capture_output=True, text=True, timeout=600, check=True,
                             env=env)
     assert "graded 1, kept 99 unchanged" in fourth.stdout
     assert read_rows(out)["student001"]["total"] == display_points(full)
 
 
-def test_dask_cluster_grades_like_local_jobs(tmp_path):
+def test_dask_cluster_grades_like_local_jobs(tmp_path, solved):
     distributed = pytest.importorskip("distributed")
-    make_class(tmp_path / "class", 6)
+    make_class(tmp_path / "class", 6, solved)
     paths = sorted((tmp_path / "class").glob("*.ipynb"))
     spec = load_lab("lab01")
     local = grade_class(paths, spec, tmp_path / "a.csv", tmp_path / "a.json", jobs=2)
@@ -120,8 +115,8 @@ def test_dask_cluster_grades_like_local_jobs(tmp_path):
     assert 0 < lost < fk.points
 
 
-def test_feedback_files_never_leak_hidden_cases(tmp_path):
-    make_class(tmp_path / "class", 3)
+def test_feedback_files_never_leak_hidden_cases(tmp_path, solved):
+    make_class(tmp_path / "class", 3, solved)
     paths = sorted((tmp_path / "class").glob("*.ipynb"))
     spec = load_lab("lab01")
     grade_class(paths, spec, tmp_path / "gb.csv", tmp_path / "gb.json")
@@ -144,7 +139,7 @@ def test_feedback_files_never_leak_hidden_cases(tmp_path):
 
 
 @pytest.mark.parametrize("layer", ["bwrap", "unshare", "rlimits"])
-def test_every_sandbox_layer_grades_and_is_reported(tmp_path, layer):
+def test_every_sandbox_layer_grades_and_is_reported(tmp_path, layer, solved):
     from grader.sandbox import layer_works
 
     if not layer_works(layer):
@@ -152,7 +147,7 @@ def test_every_sandbox_layer_grades_and_is_reported(tmp_path, layer):
                     f"installation other users can read)")
     folder = tmp_path / "class"
     folder.mkdir()
-    shutil.copy(SOLUTION, folder / "alice.ipynb")
+    solved("lab01", folder / "alice.ipynb")
     os.chmod(folder / "alice.ipynb", 0o600)
     nb = nbformat.v4.new_notebook()
     nb.cells = [nbformat.v4.new_code_cell(f"open({str(folder / 'alice.ipynb')!r}).read()")]

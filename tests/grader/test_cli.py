@@ -80,14 +80,14 @@ def test_the_rlimits_layer_is_refused_for_a_class_unless_allowed(folder, capsys,
 
 def test_a_run_ends_with_a_summary_and_counts_grader_errors_in_its_exit_code(folder, capsys,
                                                                             monkeypatch):
-    real = grade.run_submission
+    real = grade.Conversation.run
 
-    def failing_for_ben(spec, nb, *args, **kwargs):
-        if nb.path.stem == "ben":
+    def failing_for_ben(self):
+        if self.notebook.path.stem == "ben":
             raise RuntimeError("disk full")
-        return real(spec, nb, *args, **kwargs)
+        return real(self)
 
-    monkeypatch.setattr(grade, "run_submission", failing_for_ben)
+    monkeypatch.setattr(grade.Conversation, "run", failing_for_ben)
     assert cli.main(grade_args(folder, "--practice", "--jobs", "2")) == 1
     lines = capsys.readouterr().out.strip().splitlines()
     assert lines[-1].startswith("1 rows are grader errors") and lines[-1].endswith(": ben")

@@ -16,9 +16,11 @@ import pytest
 
 from grader.sandbox import ISOLATING, UID_RANGE, layer_works
 
-STUBBORN = [
-    "import signal, time\nsignal.signal(signal.SIGTERM, signal.SIG_IGN)\ntime.sleep(300)",
-    "import os, subprocess, time\nsubprocess.Popen(['sleep', '300'])\n"
+EXERCISE = "def turning_radius(linear, angular):\n    return 0.0\n"
+STUBBORN = [  # in the cell that defines the exercise: cells the grader runs whole
+    EXERCISE + "import signal, time\nsignal.signal(signal.SIGTERM, signal.SIG_IGN)\n"
+    "time.sleep(300)",
+    EXERCISE + "import os, subprocess, time\nsubprocess.Popen(['sleep', '300'])\n"
     "if os.fork() == 0:\n    time.sleep(300)\ntime.sleep(300)",
 ]
 

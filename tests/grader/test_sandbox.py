@@ -1,6 +1,9 @@
-"""The sandbox's allow-list and limits, seen from inside each isolating layer: only the
-system, the Python installation and the kit's packages; its own user id with a process limit
-that binds although the grader runs as root; private, bounded /tmp and home; no network."""
+"""The prison a submission's code runs in, seen from inside, under each isolating layer: only
+the system, the Python installation and the kit's packages (with the lab's references cut out
+and none of the grader's specifications); a user id of its own, no capabilities, a process
+limit that binds although the grader runs as root; private, bounded /tmp, /dev/shm and home
+that no other submission sees; no network; no way to make a namespace, mount, trace, raise its
+limits or kill itself with SIGKILL."""
 
 from __future__ import annotations
 
@@ -15,105 +18,163 @@ import pytest
 from grader.sandbox import (
     HOME,
     ISOLATING,
+    SANDBOX_MODULES,
     UID_RANGE,
     Limits,
     Sandbox,
     SandboxUnavailable,
     detect_layer,
+    grader_dir,
     layer_works,
     mount_plan,
 )
+from grader.server import GradingServer
+from grader.spec import load_lab
 
 ROOT = Path(__file__).resolve().parents[2]
 
-INSIDE = r"""
-import json, os, socket, sys
-report = {"uid": os.getuid(), "euid": os.geteuid(), "home": os.getcwd(),
-          "root": sorted(os.listdir("/")), "tmp": os.listdir("/tmp"),
-          "notebook": open("nb.ipynb").read()}
-try:
-    open("/usr/evil", "w")
-except OSError as exc:
-    report["usr"] = type(exc).__name__
-try:
-    socket.create_connection(("1.1.1.1", 53), timeout=2)
-    report["net"] = "connected"
-except OSError as exc:
-    report["net"] = type(exc).__name__
-pids = []
-try:
-    for _ in range(500):
-        pid = os.fork()
-        if pid == 0:
-            import time
-            time.sleep(30)
-            os._exit(0)
-        pids.append(pid)
-except OSError as exc:
-    report["fork"] = type(exc).__name__
-report["forked"] = len(pids)
-try:
+PROBE = r'''
+import ctypes, json, os, resource, signal, socket, subprocess, sys
+
+def probe():
+    report = {"uid": os.getuid(), "euid": os.geteuid(), "pid": os.getpid(),
+              "home": os.getcwd(), "root": sorted(os.listdir("/")),
+              "tmp": sorted(os.listdir("/tmp")), "shm": sorted(os.listdir("/dev/shm")),
+              "grader": sorted(n for n in os.listdir(os.path.dirname(__import__("grader").__file__))
+                               if n.endswith(".py")),
+              "proc": sorted(int(p) for p in os.listdir("/proc") if p.isdigit())}
+    status = open("/proc/self/status").read()
+    report["capabilities"] = status.split("CapEff:")[1].split()[0]
+    report["seccomp"] = status.split("Seccomp:")[1].split()[0]
+    try:
+        open("/usr/evil", "w")
+    except OSError as exc:
+        report["usr"] = type(exc).__name__
+    try:
+        socket.create_connection(("1.1.1.1", 53), timeout=2)
+        report["net"] = "connected"
+    except OSError as exc:
+        report["net"] = type(exc).__name__
+    libc = ctypes.CDLL(None, use_errno=True)
+    report["unshare_user"] = libc.unshare(0x10000000)
+    report["unshare_mount"] = libc.unshare(0x00020000)
+    report["mount"] = libc.mount(b"none", b"/tmp", b"tmpfs", 0, None)
+    report["unshare_tool"] = subprocess.run(["unshare", "-U", "-r", "true"],
+                                            capture_output=True).returncode
+    try:
+        os.kill(os.getpid(), signal.SIGKILL)
+    except PermissionError:
+        report["self_sigkill"] = "refused"
+    try:
+        resource.setrlimit(resource.RLIMIT_CPU, (1, 1))
+        report["setrlimit"] = "allowed"
+    except (OSError, ValueError):
+        report["setrlimit"] = "refused"
+    pids = []
+    try:
+        for _ in range(500):
+            pid = os.fork()
+            if pid == 0:
+                import time
+                time.sleep(30)
+                os._exit(0)
+            pids.append(pid)
+    except OSError as exc:
+        report["fork"] = type(exc).__name__
+    report["forked"] = len(pids)
+    for pid in pids:
+        os.kill(pid, signal.SIGTERM)
+    try:
+        for name in ("/tmp/a", "/tmp/b"):
+            with open(name, "wb") as fh:
+                fh.write(b"x" * (40 << 20))
+        report["tmpfs"] = "fits"
+    except OSError as exc:
+        report["tmpfs"] = exc.strerror
     for name in ("/tmp/a", "/tmp/b"):
-        with open(name, "wb") as fh:
-            fh.write(b"x" * (40 << 20))
-    report["tmpfs"] = "fits"
-except OSError as exc:
-    report["tmpfs"] = exc.strerror
-print(json.dumps(report))
-"""
+        if os.path.exists(name):
+            os.remove(name)
+    open("/tmp/mine", "w").write("left for the next submission")
+    return json.dumps(report)
+'''
 
 
-@pytest.mark.parametrize("layer", ISOLATING)
-def test_inside_the_sandbox(layer):
+@pytest.fixture(scope="module", params=ISOLATING)
+def server(request: pytest.FixtureRequest):
+    layer = request.param
     if not layer_works(layer):
-        pytest.skip(f"the {layer} layer cannot run here")
-    limits = Limits(processes=24, scratch_mb=64)
-    box = Sandbox.create(layer, limits, {}, files={"nb.ipynb": "my notebook"})
-    proc = box.start([sys.executable, "-I", "-B", "-c", INSIDE], subprocess.DEVNULL,
-                     subprocess.PIPE, subprocess.PIPE)
-    out, err = proc.communicate(timeout=120)
-    box.finish(proc)
-    assert out, err.decode()
-    report = json.loads(out.decode().strip().splitlines()[-1])
+        pytest.skip(f"the {layer} layer cannot run here (root, {layer} and a kit other users "
+                    f"can read are needed; CI has them)")
+    s = GradingServer(load_lab("lab01"), layer, Limits(processes=24, scratch_mb=64), slots=3)
+    yield s
+    s.close()
+
+
+def _probe(server: GradingServer) -> dict:
+    session = server.session(512, 60)
+    try:
+        session.ask("cells", {"cells": [{"position": 1, "first_line": "import", "mode": "run",
+                                         "source": PROBE}], "cpu_limit": 60}, wall=180)
+        header, _ = session.ask("call", {"function": "probe", "args": (), "kwargs": {},
+                                         "cpu_limit": 60}, wall=180)
+    finally:
+        session.finish()
+    assert header["status"] == "returned", header
+    return json.loads(header["value"])
+
+
+def test_inside_a_submissions_prison(server):
+    report = _probe(server)
     assert UID_RANGE[0] <= report["uid"] == report["euid"] < UID_RANGE[1]
-    assert report["home"] == HOME and report["notebook"] == "my notebook"
-    # its config folder and nothing of the host's — but the way to the kit's own packages,
-    # when the checkout itself lives under /tmp (a clone made with mktemp -d)
-    to_kit = [ROOT.parts[2]] if ROOT.parts[1:2] == ("tmp",) and len(ROOT.parts) > 2 else []
-    assert sorted(report["tmp"]) == sorted(["matplotlib", *to_kit])
+    # in a PID namespace of its own: its init (pid 1) and itself, no other process
+    assert report["pid"] == 2 and report["proc"] == [1, 2]
+    assert report["capabilities"] == "0000000000000000" and report["seccomp"] == "2"
+    assert report["home"] == HOME and report["tmp"] == [] and report["shm"] == []
     assert report["usr"] in ("OSError", "PermissionError")
     assert set(report["root"]) <= {"usr", "bin", "sbin", "lib", "lib32", "lib64", "libx32",
                                    "etc", "dev", "proc", "tmp", "home", *Path(ROOT).parts[1:2],
                                    *(Path(p).resolve().parts[1] for p in (sys.prefix,
                                                                            sys.base_prefix))}
+    # the grader's package holds its side of the questions and nothing that judges
+    assert set(report["grader"]) == {"__init__.py", *SANDBOX_MODULES}
     assert report["net"] == "OSError"
-    # the process limit binds: the worker and at most a few helpers count against it
-    assert report["fork"] == "BlockingIOError" and limits.processes - 4 <= report["forked"] < \
-        limits.processes
+    # no nested user namespace, no mount, no self-inflicted SIGKILL, no raised limits
+    assert report["unshare_user"] == report["unshare_mount"] == report["mount"] == -1
+    assert report["unshare_tool"] != 0
+    assert report["self_sigkill"] == "refused" and report["setrlimit"] == "refused"
+    # the process limit binds: the submission, its init and at most a few helpers count
+    assert report["fork"] == "BlockingIOError" and 24 - 5 <= report["forked"] < 24
     assert report["tmpfs"] == "No space left on device"  # 2 × 40 MB into a 64 MB /tmp
 
 
-def test_the_plan_binds_only_what_the_allow_list_names(tmp_path):
-    stub = str(ROOT / "kit" / "kinematics.py")
-    plan = mount_plan(UID_RANGE[0], Limits(), {"mine.ipynb": "{}"}, {stub: "# stub"})
+def test_one_submission_leaves_nothing_for_the_next(server):
+    first, second = _probe(server), _probe(server)  # each left a file in its own /tmp
+    assert first["tmp"] == second["tmp"] == []
+    assert first["uid"] != second["uid"] or first["uid"] in server.free
+
+
+def test_the_plan_binds_only_what_the_allow_list_names():
+    stripped = str(ROOT / "kit" / "kinematics.py")
+    plan = mount_plan([UID_RANGE[0]], Limits(), {stripped: "# stripped"})
     binds = {m.source for m in plan if m.kind == "bind"}
     for forbidden in (ROOT, ROOT / "solutions", ROOT / "labs", ROOT / ".git", ROOT / "tests",
-                      Path.home(), Path("/etc")):
+                      ROOT / "grader", ROOT / "grader" / "labs", Path.home(), Path("/etc")):
         assert str(forbidden) not in binds
-    packages = {str(ROOT / name) for name in ("kit", "grader", "sim", "hardware")}
-    assert packages <= binds
+    assert {str(ROOT / name) for name in ("kit", "sim", "hardware")} <= binds
+    grader = grader_dir()
+    assert {m.source for m in plan if m.kind == "bind" and m.dest.startswith(grader)} == \
+        {f"{grader}/{name}" for name in SANDBOX_MODULES}
     assert all(Path(source).exists() for source in binds)
     data = {m.dest: m.data for m in plan if m.kind in ("data", "file")}
-    assert data[f"{HOME}/mine.ipynb"] == "{}" and data[stub] == "# stub"
-    assert {m.dest for m in plan if m.kind == "file"} >= {f"{HOME}/mine.ipynb"}  # writable
-    assert "student" in data["/etc/passwd"]
-    tmpfs = {m.dest for m in plan if m.kind == "tmpfs"}
-    caches = {d for d in tmpfs if d.endswith("/__pycache__")}  # numba's, copied in
-    assert tmpfs - caches == {"/tmp", "/dev/shm", HOME}
-    assert all(any(Path(d).is_relative_to(p) for p in packages) for d in caches)
-    # a stub comes after the bind it covers
+    assert data[stripped] == "# stripped" and "def checker" in data[f"{grader}/__init__.py"]
+    assert "student000" in data["/etc/passwd"]
+    # the stripped module's compiled copies are hidden behind empty files
+    cache = ROOT / "kit" / "__pycache__"
+    for compiled in cache.glob("kinematics.*"):
+        assert data[str(compiled)] == ""
+    # a replacement comes after the bind it covers
     order = [m.dest for m in plan]
-    assert order.index(stub) > order.index(str(ROOT / "kit"))
+    assert order.index(stripped) > order.index(str(ROOT / "kit"))
 
 
 def test_a_forced_layer_that_cannot_run_is_an_error_not_a_weaker_layer(monkeypatch):
@@ -127,8 +188,8 @@ def test_a_forced_layer_that_cannot_run_is_an_error_not_a_weaker_layer(monkeypat
 
 
 def test_the_rlimits_layer_works_in_a_scratch_folder_it_removes():
-    box = Sandbox.create("rlimits", Limits(), {}, files={"nb.ipynb": "x"})
-    assert box.scratch is not None and (box.scratch / "nb.ipynb").read_text() == "x"
+    box = Sandbox.create("rlimits", Limits(), {})
+    assert box.scratch is not None and box.scratch.is_dir()
     proc = box.start([sys.executable, "-c", "import os; print(os.getcwd())"],
                      subprocess.DEVNULL, subprocess.PIPE, subprocess.DEVNULL)
     out, _ = proc.communicate(timeout=60)
@@ -151,34 +212,38 @@ def test_scratch_left_by_a_killed_rlimits_grader_is_removed_by_the_next(tmp_path
     assert not dead.exists() and alive.exists()
 
 
-NUMBA = r"""
+NUMBA = r'''
 import json
-from sim import Simulation, raycast
-sim = Simulation(world="square", robot="uiabot", seed=1)
-for _ in sim.run(0.3):
-    pass
-stats = raycast._cast_scan.stats
-print(json.dumps({"hits": sum(stats.cache_hits.values()),
-                  "misses": sum(stats.cache_misses.values())}))
-"""
+def lidar_cache():
+    from sim import Simulation, raycast
+    sim = Simulation(world="square", robot="uiabot", seed=1)
+    for _ in sim.run(0.3):
+        pass
+    stats = raycast._cast_scan.stats
+    return json.dumps({"hits": sum(stats.cache_hits.values()),
+                       "misses": sum(stats.cache_misses.values())})
+'''
 
 
 @pytest.mark.parametrize("layer", ISOLATING)
-def test_numba_finds_its_compiled_lidar_in_the_sandbox(layer):
+def test_numba_finds_its_compiled_lidar_in_a_submissions_prison(layer):
     """The simulated lidar's compiled functions are loaded from numba's cache beside their
-    source, not compiled again in every sandbox."""
+    source (a private copy per submission), not compiled again in every one."""
     if not layer_works(layer):
         pytest.skip(f"the {layer} layer cannot run here")
     env = {"NUMBA_NUM_THREADS": "1", "KIT_FAST": "1"}
     # on the host first: a fresh checkout has no cache yet, and this run writes it
-    subprocess.run([sys.executable, "-c", NUMBA], capture_output=True, check=True,
-                   env={**os.environ, **env})
-    box = Sandbox.create(layer, Limits(), env)
-    assert any(m.kind == "tmpfs" and m.dest.endswith("sim/__pycache__") for m in box.plan)
-    proc = box.start([sys.executable, "-I", "-B", "-c", NUMBA], subprocess.DEVNULL,
-                     subprocess.PIPE, subprocess.PIPE)
-    out, err = proc.communicate(timeout=300)
-    box.finish(proc)
-    assert out, err.decode()
-    stats = json.loads(out.decode().splitlines()[-1])
-    assert stats == {"hits": 1, "misses": 0}
+    subprocess.run([sys.executable, "-c", NUMBA + "\nlidar_cache()"], capture_output=True,
+                   check=True, env={**os.environ, **env})
+    server = GradingServer(load_lab("lab09"), layer, Limits(), slots=1)  # leaves sim whole
+    try:
+        session = server.session(1024, 120)
+        session.ask("cells", {"cells": [{"position": 1, "first_line": "", "mode": "run",
+                                         "source": NUMBA}], "cpu_limit": 120}, wall=300)
+        header, _ = session.ask("call", {"function": "lidar_cache", "args": (), "kwargs": {},
+                                         "cpu_limit": 120}, wall=300)
+        session.finish()
+    finally:
+        server.close()
+    assert header["status"] == "returned", header
+    assert json.loads(header["value"]) == {"hits": 1, "misses": 0}
