@@ -34,7 +34,13 @@ from grader.grade import DEFAULT_MEMORY_MB, DEFAULT_TIMEOUT, grade_notebook, ser
 from grader.results import ExerciseResult, SubmissionResult, display_points, exact_points
 from grader.sandbox import Limits
 from grader.spec import PRACTICE_SECRET, LabSpec, load_lab
-from grader.submissions import Submission, clean_text, digest, find_submissions
+from grader.submissions import (
+    Submission,
+    clean_text,
+    digest,
+    find_submissions,
+    one_row_per_student,
+)
 
 __all__ = ["GradebookError", "fingerprint", "grade_class", "gradebook_rows", "write_gradebook",
            "write_results"]
@@ -95,19 +101,7 @@ def _as_submissions(items: Sequence[Path | Submission], lab: str) -> list[Submis
             out.append(item)
         else:
             out.extend(find_submissions([Path(item)], lab).submissions)
-    by_student: dict[str, list[Submission]] = {}
-    for s in out:
-        by_student.setdefault(s.student, []).append(s)
-    rows = []
-    for student, found in by_student.items():
-        if len(found) == 1:
-            rows.append(found[0])
-        else:  # given separately, still one row: never two for one student
-            names = ", ".join(clean_text(str(s.path)) for s in found)
-            rows.append(Submission(student, found[0].path, "duplicate",
-                                   f"{len(found)} notebooks of {lab} for {student}: {names} — "
-                                   f"keep one and grade again"))
-    return rows
+    return one_row_per_student(out, lab)  # given separately, still one row per student
 
 
 def _refused_row(s: Submission, spec: LabSpec, practice: bool) -> SubmissionResult:

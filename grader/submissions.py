@@ -39,8 +39,8 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["MAX_NOTEBOOK_BYTES", "Found", "Notebook", "Submission", "SubmissionError",
-           "clean_text", "find_submissions", "lab_of_name", "normalise_student",
-           "read_notebook", "student_id"]
+           "clean_text", "digest", "find_submissions", "lab_of_name", "normalise_student",
+           "one_row_per_student", "read_notebook", "student_id"]
 
 PREFIX = re.compile(r"^(\d{2})-")
 GRADE_ID = re.compile(r"^(lab\d{2})\.")
@@ -432,11 +432,11 @@ def find_submissions(paths: Sequence[Path], lab: str) -> Found:
                 found.submissions.append(submission)
         else:
             raise FileNotFoundError(f"{clean_text(str(p))}: no such submission")
-    found.submissions = _one_row_per_student(found.submissions, lab)
+    found.submissions = one_row_per_student(found.submissions, lab)
     return found
 
 
-def _one_row_per_student(submissions: list[Submission], lab: str) -> list[Submission]:
+def one_row_per_student(submissions: list[Submission], lab: str) -> list[Submission]:
     """Two notebooks of the lab for one student become one ``duplicate`` row naming both."""
     by_student: dict[str, list[Submission]] = {}
     for s in submissions:

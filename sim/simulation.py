@@ -377,8 +377,14 @@ class Simulation:
         f = float(self.rng.uniform(0.0, 1.0))
         a, b = route[leg], route[min(leg + 1, len(route) - 1)]
         start = a + f * (b - a)
+        body, ground = self._person_body(float(start[0]), float(start[1]))
+        return _Person(body, ground, route, min(leg + 1, len(route) - 1), 1,
+                       float(self.rng.uniform(0.8, 1.4)))
+
+    def _person_body(self, x: float, y: float) -> tuple[pymunk.Body, pymunk.Body]:
+        """A person's disc at (x, y) and the ground it walks on (their feet)."""
         body = pymunk.Body(70.0, float("inf"))
-        body.position = (float(start[0]), float(start[1]))
+        body.position = (x, y)
         shape = pymunk.Circle(body, PERSON_RADIUS)
         shape.collision_type = PERSON
         shape.friction = 0.5
@@ -387,8 +393,7 @@ class Simulation:
         joint.max_bias = 0.0
         joint.max_force = 70.0 * 1.5  # feet push with about 1.5 m/s² on 70 kg
         self.space.add(body, shape, ground, joint)
-        return _Person(body, ground, route, min(leg + 1, len(route) - 1), 1,
-                       float(self.rng.uniform(0.8, 1.4)))
+        return body, ground
 
     def _on_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: Any) -> None:
         for shape in arbiter.shapes:
@@ -794,16 +799,7 @@ class Simulation:
         x, y = (float(v) for v in np.asarray(position, dtype=float).reshape(2))
         if not (math.isfinite(x) and math.isfinite(y)):
             raise ValueError(f"a bystander needs a finite (x, y) position; got {position!r}")
-        body = pymunk.Body(70.0, float("inf"))
-        body.position = (x, y)
-        shape = pymunk.Circle(body, PERSON_RADIUS)
-        shape.collision_type = PERSON
-        shape.friction = 0.5
-        ground = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-        joint = pymunk.PivotJoint(body, ground, (0.0, 0.0), (0.0, 0.0))
-        joint.max_bias = 0.0
-        joint.max_force = 70.0 * 1.5
-        self.space.add(body, shape, ground, joint)
+        body, ground = self._person_body(x, y)
         self.people.append(_Person(body, ground, np.array([[x, y]]), 0, 1, 0.0, scripted=True))
         return len(self.people) - 1
 

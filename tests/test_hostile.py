@@ -675,3 +675,27 @@ def test_retry_grades_rows_of_the_named_statuses_again(tmp_path):
     grade_class([folder / "crashy.ipynb"], spec, out, results, secret=SECRET, layer=layer,
                 retry=("crashed",), progress=lambda r, reused: seen.append(reused))
     assert seen == [True, False]
+
+
+def test_a_late_submission_claiming_another_identity_lands_on_its_own_row(tmp_path, solved):
+    """Graded alone into an existing gradebook, a notebook whose metadata names another
+    student updates the row of the file's student — never the one it names."""
+    layer = next((layer for layer in ISOLATING if layer_works(layer)), None)
+    if layer is None:
+        pytest.skip("no isolating layer here")
+    folder = _class_folder(tmp_path)
+    solved("lab01", folder / "alice.ipynb")
+    write_notebook(folder / "bob.ipynb", [GOOD_RADIUS])
+    out, results = tmp_path / "gb.csv", tmp_path / "gb.json"
+    spec = load_lab("lab01")
+    grade_class(sorted(folder.glob("*.ipynb")), spec, out, results, secret=SECRET, layer=layer)
+    nb = nbformat.read(ROOT / "labs" / "01-kinematics.ipynb", as_version=4)
+    nb.metadata["kit"] = {"student": "alice"}
+    nbformat.write(nb, folder / "mallory.ipynb")
+    late = grade_class([folder / "mallory.ipynb"], spec, out, results, secret=SECRET,
+                       layer=layer)
+    assert [r.student for r in late] == ["mallory"]
+    rows = {r["student"]: r for r in json.loads(results.read_text())["submissions"]}
+    assert set(rows) == {"alice", "bob", "mallory"}
+    assert rows["alice"]["total"] == 20 and rows["mallory"]["total"] == 0
+    assert "metadata names another student ('alice')" in rows["mallory"]["reason"]

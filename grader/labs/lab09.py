@@ -14,8 +14,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from grader.compare import matches
-from grader.spec import Case, Diagnostic, Exercise, LabSpec
+from grader.spec import Case, Diagnostic, Exercise, LabSpec, until_each_shows
 from kit import planning as pl
 
 _BLOCKED = (
@@ -33,15 +32,8 @@ SQRT2 = math.sqrt(2.0)
 def _until_each_shows(rng: np.random.Generator, draw: Callable[[np.random.Generator], list[Case]],
                       reference: Callable[..., Any], mistakes: Sequence[Callable[..., Any]],
                       tries: int = 200) -> list[Case]:
-    """Cases from ``draw`` (drawn again while needed) among which each of ``mistakes`` — the
-    spec's own models of the exercise's classic mistakes — gives a wrong output at least
-    once: whether a mistake costs points must not depend on the student's draw."""
-    for _ in range(tries):
-        cases = draw(rng)
-        if all(any(not matches(reference(*c.args), mistake(*c.args), 0.0, 1e-9)
-                   for c in cases) for mistake in mistakes):
-            return cases
-    raise RuntimeError(f"no {tries} draws of hidden cases tell every mistake apart")
+    """:func:`grader.spec.until_each_shows` at this lab's tolerances."""
+    return until_each_shows(rng, draw, reference, mistakes, 0.0, 1e-9, tries)
 
 
 # ---------------------------------------------------------------- inflation cost

@@ -14,8 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from grader.compare import matches
-from grader.spec import Case, Diagnostic, Exercise, LabSpec
+from grader.spec import Case, Diagnostic, Exercise, LabSpec, until_each_shows
 from kit import geometry
 from kit import navigation as nav
 
@@ -31,15 +30,8 @@ _BLOCKED = (
 def _until_each_shows(rng: np.random.Generator, draw: Callable[[np.random.Generator], list[Case]],
                       reference: Callable[..., Any], mistakes: Sequence[Callable[..., Any]],
                       tries: int = 200) -> list[Case]:
-    """Cases from ``draw`` (drawn again while needed) among which each of ``mistakes`` — the
-    spec's own models of the exercise's classic mistakes — gives a wrong output at least
-    once: whether a mistake costs points must not depend on the student's draw."""
-    for _ in range(tries):
-        cases = draw(rng)
-        if all(any(not matches(reference(*c.args), mistake(*c.args), 1e-9, 1e-12)
-                   for c in cases) for mistake in mistakes):
-            return cases
-    raise RuntimeError(f"no {tries} draws of hidden cases tell every mistake apart")
+    """:func:`grader.spec.until_each_shows` at this lab's tolerances."""
+    return until_each_shows(rng, draw, reference, mistakes, 1e-9, 1e-12, tries)
 
 
 # ---------------------------------------------------------------- pure pursuit
