@@ -128,7 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    from kit.clitext import negative_values
+
+    args = build_parser().parse_args(negative_values(sys.argv[1:] if argv is None else argv))
     try:
         return int(args.func(args))
     except (ValueError, KeyError) as exc:
