@@ -5,7 +5,7 @@ patch, into an office and back — steering by its own wheel odometry (*see*: en
 kit's odometry; *think*: turn towards the next waypoint; *act*: ``cmd_vel`` → inverse
 kinematics → wheel servos). The demo writes a PNG (true path, odometry path, lidar returns)
 and an MCAP ROS 2 bag with ``/scan``, ``/odom``, ``/imu``, ``/joint_states``, ``/cmd_vel``,
-``/tf`` and ``/tf_static``, and prints what it wrote.
+``/tf``, ``/tf_static`` and ``/clock`` (simulation time), and prints what it wrote.
 """
 
 from __future__ import annotations
@@ -137,10 +137,11 @@ class ScanLog(Node):
 
 
 def run(seconds: float = 240.0, seed: int = 7, people: int = 4,
-        bag_path: Path | None = None) -> dict[str, object]:
-    """Drive the route; returns paths, scans and counts (and writes the bag if asked)."""
+        bag_path: Path | None = None, clock_period: float | None = 0.01) -> dict[str, object]:
+    """Drive the route; returns paths, scans and counts (and writes the bag if asked, with
+    ``/clock`` every ``clock_period`` simulated seconds)."""
     sim = Simulation(world="office", robot="uiabot", seed=seed, people=people)
-    bag = BagWriter(bag_path) if bag_path is not None else None
+    bag = BagWriter(bag_path, clock_period=clock_period) if bag_path is not None else None
     recorder = BagRecorder(TOPICS, bag)
     follower = RouteFollower()
     scans = ScanLog()

@@ -28,17 +28,20 @@ def _image(grid: OccupancyGridMap | msgs.OccupancyGrid
     return p, (x0, x0 + cols * res, y0, y0 + rows * res)
 
 
-def known_extent(grid: OccupancyGridMap | msgs.OccupancyGrid, margin: float = 0.5
-                 ) -> tuple[float, float, float, float]:
+def known_extent(grid: OccupancyGridMap | msgs.OccupancyGrid, margin: float = 0.5,
+                 stray: float = 0.001) -> tuple[float, float, float, float]:
     """``(x_min, x_max, y_min, y_max)`` [m] of the grid's known cells, ``margin`` metres
-    wider (the whole grid when nothing is known)."""
+    wider (the whole grid when nothing is known). The ``stray`` share of known cells farthest
+    out on each side (beams through a window, a lone reflection) is left out."""
     p, (x0, x1, y0, y1) = _image(grid)
     rows, cols = np.nonzero(~np.isnan(p))
     if len(rows) == 0:
         return x0, x1, y0, y1
     res = (x1 - x0) / p.shape[1]
-    return (max(x0, x0 + cols.min() * res - margin), min(x1, x0 + (cols.max() + 1) * res + margin),
-            max(y0, y0 + rows.min() * res - margin), min(y1, y0 + (rows.max() + 1) * res + margin))
+    c0, c1 = np.quantile(cols, [stray, 1 - stray])
+    r0, r1 = np.quantile(rows, [stray, 1 - stray])
+    return (max(x0, x0 + c0 * res - margin), min(x1, x0 + (c1 + 1) * res + margin),
+            max(y0, y0 + r0 * res - margin), min(y1, y0 + (r1 + 1) * res + margin))
 
 
 def crop_to_known(ax: Axes, grid: OccupancyGridMap | msgs.OccupancyGrid,
