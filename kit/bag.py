@@ -37,7 +37,7 @@ from typing import Any
 from kit import msgs, rosconv
 
 __all__ = ["LATCHED_TOPICS", "METADATA_VERSION", "ROS_DISTRO", "BagWriter", "bag_topics",
-           "describe_topics", "read_bag", "write_bag"]
+           "check_topic", "describe_topics", "read_bag", "write_bag"]
 
 LATCHED_TOPICS = ("/tf_static", "/map", "/robot_description", "/global_costmap/costmap",
                   "/local_costmap/costmap", "/amcl_pose")
@@ -279,6 +279,29 @@ def describe_topics(topics: dict[str, tuple[str, int]]) -> str:
     return ", ".join(f"{t} ({typ}, {n})" for t, (typ, n) in sorted(topics.items())) or "none"
 
 
+def check_topic(path: str | Path, topic: str, ros_type: str, option: str) -> None:
+    """Make sure a bag has ``topic`` of ``ros_type`` before a command reads it.
+
+    Raises
+    ------
+    ValueError
+        Naming the bag, the topic, the bag's topics of that type and the command's
+        ``option`` that chooses one (or, with none of that type, every topic it has).
+    """
+    topics = bag_topics(path)
+    if topics.get(topic, ("", 0))[0] == ros_type:
+        return
+    short = ros_type.rsplit("/", 1)[-1]
+    fits = sorted(t for t, (typ, _) in topics.items() if typ == ros_type)
+    what = (f"topic {topic} is {topics[topic][0]}, not {short}" if topic in topics else
+            f"no topic {topic}")
+    if fits:
+        raise ValueError(f"{path}: {what}; its {short} topics: {', '.join(fits)} (choose one "
+                         f"with {option})")
+    raise ValueError(f"{path}: {what}, and no {ros_type} on any topic; it has "
+                     f"{describe_topics(topics)}")
+
+
 def read_bag(path: str | Path, topics: Sequence[str] | None = None
              ) -> Iterator[tuple[str, int, msgs.Message]]:
     """``(topic, time_ns, message)`` for every message of a type the kit knows, in time order.
@@ -323,8 +346,9 @@ def _connections(path: Path, connections: Sequence[Any], topics: Sequence[str] |
     for c in connections:
         have[c.topic] = (c.msgtype, have[c.topic][1] + c.msgcount)
     if not any(t in present for t in topics):
-        raise ValueError(f"{path}: none of the topics {', '.join(topics)} is in this bag; it "
-                         f"has {describe_topics(have)}")
+        asked = (f"no topic {topics[0]}" if len(topics) == 1 else
+                 f"none of the topics {', '.join(topics)}")
+        raise ValueError(f"{path}: {asked} in this bag; it has {describe_topics(have)}")
     for t in topics:
         if t in present and present[t] not in msgs.MESSAGE_TYPES:
             raise ValueError(f"{path}: topic {t} carries {present[t]}, which the kit does "

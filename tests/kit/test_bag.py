@@ -48,7 +48,7 @@ def _bag(tmp_path):
 def test_asking_for_topics_the_bag_lacks_names_the_bag_and_its_topics(tmp_path):
     """rosbags reads an empty connection list as "all of them": it must never get one."""
     bag = _bag(tmp_path)
-    with pytest.raises(ValueError, match=r"a: none of the topics /nope is in this bag; it has "
+    with pytest.raises(ValueError, match=r"a: no topic /nope in this bag; it has "
                        r"/robot_description \(std_msgs/msg/String, 1\), /scan "
                        r"\(sensor_msgs/msg/LaserScan, 1\)"):
         list(read_bag(bag, ["/nope"]))
