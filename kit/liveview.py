@@ -48,22 +48,30 @@ def parse_address(text: str) -> tuple[str, int]:
     return host, int(port)
 
 
-class _Listener:
-    """Notes subscriptions to latched topics, for :meth:`LiveView.publish` to answer."""
+class _Subscriptions:
+    """Subscriptions to latched topics, for :meth:`LiveView.publish` to answer; filled by the
+    server's listener (on the server's thread)."""
 
     def __init__(self) -> None:
         self.lock = threading.Lock()
         self.pending: set[str] = set()
         self.clients = 0
 
-    def on_subscribe(self, client: Any, channel: Any) -> None:
-        with self.lock:
-            self.pending.add(channel.topic)
-            self.clients += 1
 
-    def on_unsubscribe(self, client: Any, channel: Any) -> None:
-        with self.lock:
-            self.clients -= 1
+def _listener(subscriptions: _Subscriptions) -> Any:
+    from foxglove.websocket import ServerListener
+
+    class Listener(ServerListener):
+        def on_subscribe(self, client: Any, channel: Any) -> None:
+            with subscriptions.lock:
+                subscriptions.pending.add(channel.topic)
+                subscriptions.clients += 1
+
+        def on_unsubscribe(self, client: Any, channel: Any) -> None:
+            with subscriptions.lock:
+                subscriptions.clients -= 1
+
+    return Listener()
 
 
 class LiveView:
@@ -96,11 +104,11 @@ class LiveView:
         self._foxglove = foxglove
         self._latched_topics = frozenset(LATCHED_TOPICS)
         self._context = foxglove.Context()
-        self._listener = _Listener()
+        self._listener = _Subscriptions()
         try:
             self.server = foxglove.start_server(
                 name=name, host=host, port=port, capabilities=[Capability.Time],
-                server_listener=self._listener, context=self._context)
+                server_listener=_listener(self._listener), context=self._context)
         except RuntimeError as exc:
             raise ValueError(f"cannot serve the live view on {host}:{port}: {exc}; choose "
                              f"another address") from None
