@@ -1,10 +1,14 @@
-"""``python -m sim demo [--out DIR] [--seed N]``, ``python -m sim bench [--quick]`` and
-``python -m sim navigate --world office|aisle --robot uiabot|igv|eddie|FILE --episodes N
---seed S [--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass]
-[--keepout|--no-keepout] --out FILE.csv``. ``--robot`` also takes a robot's own description:
-a ``.urdf``, ``.urdf.xacro`` (with ``--xacro-arg NAME:=VALUE`` and ``--package-path
-PKG=DIR``), a kit ``.toml`` or a bag that recorded ``/robot_description``;
-``--robot-params FILE`` gives what its URDF does not hold (see :func:`kit.robots.load`)."""
+"""The simulator's command, as ``python -m sim …`` or ``kit sim …``:
+
+``demo [--out DIR] [--seed N] [--live [HOST:PORT]] [--speed X]``, ``bench [--quick]`` and
+``navigate --world office|aisle --robot uiabot|igv|eddie|FILE --episodes N --seed S
+[--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass]
+[--keepout|--no-keepout] [--bag] [--live [HOST:PORT]] [--speed X] [--quiet] --out DIR``.
+``--robot`` also takes a robot's own description: a ``.urdf``, ``.urdf.xacro`` (with
+``--xacro-arg NAME:=VALUE`` and ``--package-path PKG=DIR``), a kit ``.toml`` or a bag that
+recorded ``/robot_description``; ``--robot-params FILE`` gives what its URDF does not hold
+(see :func:`kit.robots.load`). ``--live`` serves the robot's topics to Foxglove
+(:mod:`kit.liveview`) while it runs, at ``--speed`` times real time."""
 
 from __future__ import annotations
 
@@ -12,22 +16,43 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from kit.liveview import LiveView
     from kit.robots import RobotDescription
 
+__all__ = ["main", "register"]
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sim", description="The kit's simulator.")
-    sub = parser.add_subparsers(dest="command", required=True)
+
+def _live_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--live", nargs="?", const="127.0.0.1:8765", default=None,
+                   metavar="HOST:PORT",
+                   help="serve the robot's topics to Foxglove Studio while it runs "
+                        "(Foxglove WebSocket, default ws://127.0.0.1:8765)")
+    p.add_argument("--speed", type=float, default=None,
+                   help="with --live: simulated seconds per real second (default 1)")
+
+
+def _add_commands(sub: Any) -> None:
+    """``demo``, ``bench`` and ``navigate`` on ``sub`` (an argparse subparsers object)."""
     demo = sub.add_parser("demo", help="the whole loop: the Uiabot maps the office with SLAM, "
-                          "then navigates it with AMCL among people; PNG, HTML, MCAP bag")
-    demo.add_argument("--out", default="out", help="folder for the PNG (out)")
+                          "then navigates it with AMCL among people; PNG, HTML, MCAP bags",
+                          description="Writes into --out: demo_office/ (the mapping drive's "
+                          "bag), demo_map.yaml + .pgm (the SLAM map), demo_loop.png, "
+                          "demo_loop.html (an animation that plays offline) and demo_loop/ "
+                          "(the navigation's MCAP bag).")
+    demo.add_argument("--out", default="out", help="output folder (default out)")
     demo.add_argument("--seed", type=int, default=7)
+    _live_options(demo)
+    demo.set_defaults(sim_func=_demo)
     bench = sub.add_parser("bench", help="real-time factors and raycaster throughput")
     bench.add_argument("--quick", action="store_true", help="one short run per figure")
-    nav = sub.add_parser("navigate", help="seeded navigation episodes; one CSV row per goal")
+    bench.set_defaults(sim_func=_bench)
+    nav = sub.add_parser("navigate", help="seeded navigation episodes; one CSV row per goal",
+                         description="Writes into --out: navigate.csv (one row per goal) and, "
+                         "with --bag, episode_000/, episode_001/, ... (an MCAP ROS 2 bag per "
+                         "episode).")
     nav.add_argument("--world", choices=("office", "aisle"), default="office")
     nav.add_argument("--robot", default="uiabot",
                      help="uiabot, igv, eddie, or a robot file: .urdf, .urdf.xacro, .xacro, "
@@ -51,38 +76,112 @@ def main(argv: Sequence[str] | None = None) -> int:
                      help="how many people walk (default: the route's)")
     nav.add_argument("--keepout", action=argparse.BooleanOptionalAction, default=None,
                      help="the glass as a keep-out mask (default: on, but for the glass route)")
-    nav.add_argument("--out", required=True, help="CSV file to write")
-    args = parser.parse_args(argv)
-    if args.command == "navigate":
-        return _navigate(args)
-    if args.command == "bench":
-        from sim import bench as bench_module
+    nav.add_argument("--bag", action="store_true",
+                     help="also write an MCAP ROS 2 bag per episode into --out")
+    _live_options(nav)
+    nav.add_argument("--quiet", action="store_true", help="no progress bar")
+    nav.add_argument("--out", required=True,
+                     help="output folder (navigate.csv, episode_NNN/); a name ending in .csv "
+                          "is taken as the table's file, as before")
+    nav.set_defaults(sim_func=_navigate)
 
-        return bench_module.main(args.quick)
+
+def register(subparsers: Any) -> None:
+    """Add ``sim`` to the ``kit`` command (found through the ``kit.commands`` entry point,
+    so that ``kit`` itself never imports the simulator)."""
+    p = subparsers.add_parser("sim", help="the simulator: demo, navigate, bench",
+                              description=__doc__.split("\n\n")[0].replace("``", ""))
+    _add_commands(p.add_subparsers(dest="sim_command", required=True))
+    p.set_defaults(func=lambda args: args.sim_func(args))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from kit.clitext import negative_values
+
+    parser = argparse.ArgumentParser(prog="python -m sim", description="The kit's simulator.")
+    _add_commands(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(negative_values(sys.argv[1:] if argv is None else argv))
+    try:
+        return int(args.sim_func(args))
+    except ValueError as e:
+        print(f"python -m sim {args.command}: {e}", file=sys.stderr)
+        return 2
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from sim import bench as bench_module
+
+    return bench_module.main(args.quick)
+
+
+def _live(args: argparse.Namespace) -> tuple[LiveView | None, float | None]:
+    """The live view ``--live`` asks for (and the pace), or ``(None, None)``."""
+    if args.live is None:
+        if args.speed is not None:
+            raise ValueError("--speed paces the live view: give --live too")
+        return None, None
+    from kit.liveview import LiveView, parse_address
+
+    speed = 1.0 if args.speed is None else args.speed
+    if not speed > 0:
+        raise ValueError(f"--speed is a positive factor of real time; got {speed}")
+    host, port = parse_address(args.live)
+    view = LiveView(host, port, name="kit simulator")
+    print(f"live view: open {view.url} in Foxglove Studio (Open connection -> Foxglove "
+          f"WebSocket); the simulation runs at {speed:g}x real time", flush=True)
+    return view, speed
+
+
+def _demo(args: argparse.Namespace) -> int:
     from sim import navdemo
 
-    return navdemo.main(Path(args.out), args.seed)
+    view, speed = _live(args)
+    try:
+        return navdemo.main(Path(args.out), args.seed, live=view, speed=speed)
+    finally:
+        if view is not None:
+            view.close()
+
+
+def _table_and_bags(out: str) -> tuple[Path, Path]:
+    """``--out``: a folder (``navigate.csv`` in it) or, as before, the table's own file."""
+    path = Path(out)
+    if path.suffix == ".csv":
+        return path, path.parent
+    return path / "navigate.csv", path
 
 
 def _navigate(args: argparse.Namespace) -> int:
-    from sim import scenarios
+    from sim import live, navtopics, scenarios
 
     if args.episodes < 1:
-        print("python -m sim navigate: --episodes must be at least 1", file=sys.stderr)
-        return 2
-    try:
-        robot = _robot(args)
-    except ValueError as e:
-        print(f"python -m sim navigate: {e}", file=sys.stderr)
-        return 2
+        raise ValueError("--episodes must be at least 1")
+    robot = _robot(args)
+    table, folder = _table_and_bags(args.out)
+    if args.bag:
+        taken = sorted(p.name for p in folder.glob("episode_*")) if folder.is_dir() else []
+        if taken:
+            raise ValueError(f"{folder} already holds {', '.join(taken[:3])}: a bag is written "
+                             f"to a new folder; choose another --out")
+    view, speed = _live(args)
+    outputs = None
+    if args.bag or view is not None:
+        from kit import description_files
+
+        urdf = navtopics.robot_description_xml(
+            robot, description_files.parse_xacro_args(args.xacro_arg),
+            description_files.parse_package_paths(args.package_path))
+        outputs = live.EpisodeOutputs(folder if args.bag else None, view, speed, urdf)
     try:
         rows = scenarios.navigate(args.world, robot, args.episodes, args.seed,
                                   args.localization, args.controller, args.route, args.keepout,
-                                  people=args.people)
-    except ValueError as e:
-        print(f"python -m sim navigate: {e}", file=sys.stderr)
-        return 2
-    out = scenarios.write_table(rows, args.out)
+                                  bar=not args.quiet, people=args.people, observers=outputs)
+    finally:
+        if outputs is not None:
+            outputs.close()
+        if view is not None:
+            view.close()
+    out = scenarios.write_table(rows, table)
     figures = scenarios.summary(rows, robot.cruise_velocity)
     route = args.route or scenarios.default_route(args.world, robot)
     print(f"{args.world}/{route}, {robot.name}, {args.localization}, {args.controller}: "
@@ -91,7 +190,9 @@ def _navigate(args: argparse.Namespace) -> int:
           f"episodes without touching a person; {figures['collisions_static']:.0f} contacts "
           f"with walls or obstacles; median time / (shortest / cruise) "
           f"{figures['median_time_ratio']:.2f}")
-    print(f"wrote {out}")
+    bags = f" and {len(outputs.bags)} bags ({folder}/episode_000/ ...)" \
+        if outputs is not None and outputs.bags else ""
+    print(f"wrote {out}{bags}")
     return 0
 
 

@@ -34,8 +34,10 @@ import numpy as np
 
 from kit import geometry, msgs, perception
 from kit.bag import BagWriter
+from kit.liveview import LiveView
 from kit.slam.offline import read_bag_recording, run_bag
 from sim import demo, navtopics, scenarios
+from sim.live import LiveNode
 from sim.runner import Node, Published, Runner, WheelOdometryNode
 from sim.simulation import Simulation
 
@@ -92,9 +94,12 @@ class Snapshots(Node):
         return ()
 
 
-def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None
+def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None,
+                    live: LiveView | None = None, speed: float | None = None
                     ) -> dict[str, Any]:
-    """The office tour on ``grid`` with AMCL among people; rows, frames and counts."""
+    """The office tour on ``grid`` with AMCL among people; rows, frames and counts. With
+    ``live``, the topics go to that live view too, the simulation paced at ``speed`` times
+    real time."""
     route = scenarios.Route("office", (1.0, 6.0, 0.0), GOALS, 5,
                             "the mapped offices and home, among five people")
     world = scenarios.load_world("office")
@@ -112,12 +117,15 @@ def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None
     recorder = demo.BagRecorder(TOPICS, bag)
     shots = Snapshots(node)
     topics = navtopics.NavigationTopics(node, navtopics.robot_description_xml(d))
-    runner = Runner(sim, [WheelOdometryNode(), node, topics, recorder, shots], record_rate=1.0)
+    viewer = [] if live is None else [LiveNode(live, TOPICS, speed)]
+    runner = Runner(sim, [WheelOdometryNode(), node, topics, recorder, shots, *viewer],
+                    record_rate=1.0)
     if bag is not None:
         bag.__enter__()
     try:
-        recorder.on_message("/tf_static", sim.static_transforms(), 0.0)
-        recorder.on_message("/map", grid, 0.0)
+        for sink in (recorder, *viewer):
+            sink.on_message("/tf_static", sim.static_transforms(), 0.0)
+            sink.on_message("/map", grid, 0.0)
         runner.run(sum(limits) + 1.0, until=lambda r: node.done)
     finally:
         if bag is not None:
@@ -201,7 +209,10 @@ def _animation(grid: msgs.OccupancyGrid, result: dict[str, Any], html: Path) -> 
         title="Uiabot on its SLAM map: AMCL, planner, Regulated Pure Pursuit, people")
 
 
-def main(out_dir: Path, seed: int = 7) -> int:
+def main(out_dir: Path, seed: int = 7, live: LiveView | None = None,
+         speed: float | None = None) -> int:
+    """Both phases; with ``live``, each is also served to that live view (Foxglove) at
+    ``speed`` times real time."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -210,7 +221,9 @@ def main(out_dir: Path, seed: int = 7) -> int:
     mapping_bag = out_dir / "demo_office"
     if mapping_bag.exists():
         shutil.rmtree(mapping_bag)
-    drive = demo.run(seed=seed, people=0, bag_path=mapping_bag, clock_period=CLOCK_PERIOD)
+    viewer = [] if live is None else [LiveNode(live, demo.TOPICS, speed)]
+    drive = demo.run(seed=seed, people=0, bag_path=mapping_bag, nodes=viewer,
+                     clock_period=CLOCK_PERIOD)
     slam = run_bag(read_bag_recording(mapping_bag))
     occupancy = slam.occupancy_map(0.05)
     occupancy.save(out_dir / "demo_map.yaml")
@@ -221,7 +234,9 @@ def main(out_dir: Path, seed: int = 7) -> int:
     nav_bag = out_dir / "demo_loop"
     if nav_bag.exists():
         shutil.rmtree(nav_bag)
-    result = navigate_on_map(grid, seed, nav_bag)
+    if live is not None:
+        live.server.clear_session()       # the mapping drive's frames are done with
+    result = navigate_on_map(grid, seed, nav_bag, live, speed)
     rows = result["rows"]
     figures = scenarios.summary(rows, 0.5)
     print(f"2. navigated on the SLAM map with AMCL among 5 people: "
