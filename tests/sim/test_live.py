@@ -91,3 +91,15 @@ def test_navigate_writes_its_table_and_a_bag_per_episode_into_out(tmp_path, caps
     assert "/particlecloud" not in topics            # truth localization: no particles
     assert main(args) == 2
     assert "already holds episode_000" in capsys.readouterr().err
+
+
+def test_kit_sim_is_the_simulators_command(capsys):
+    """kit finds it through the kit.commands entry point (kit never imports sim)."""
+    from kit.cli import main as kit_main
+
+    with pytest.raises(SystemExit):
+        kit_main(["sim", "navigate", "--help"])
+    text = capsys.readouterr().out
+    assert "--live [HOST:PORT]" in text and "navigate.csv" in text and "--quiet" in text
+    assert kit_main(["sim", "navigate", "--episodes", "0", "--out", "x"]) == 2
+    assert "kit: --episodes must be at least 1" in capsys.readouterr().err
