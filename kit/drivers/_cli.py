@@ -16,6 +16,7 @@ import math
 import queue
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -55,9 +56,12 @@ _TOPICS = {"rplidar": ["/scan"], "lms2xx": ["/scan"], "bno055": ["/imu"], "os500
 
 
 def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "uiabot",
-           duration: float = math.inf, log: Any = print) -> dict[str, int]:
+           duration: float = math.inf, log: Any = print,
+           on_message: Callable[[str, int, Any], None] | None = None) -> dict[str, int]:
     """Record ``(device, port, baud)`` sources into a new MCAP bag at ``out`` for
-    ``duration`` seconds (or until Ctrl-C); returns the messages written per topic.
+    ``duration`` seconds (or until Ctrl-C); returns the messages written per topic. Each
+    message written also goes to ``on_message(topic, time_ns, message)`` if given (a live
+    view).
 
     Raises
     ------
@@ -88,8 +92,10 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
         with BagWriter(out) as bag:
             start = time.time()
             stamp = msgs.Time.from_sec(start)
-            bag.write("/tf_static", msgs.TFMessage(description.static_transforms(stamp)),
-                      stamp.to_nsec())
+            static = msgs.TFMessage(description.static_transforms(stamp))
+            bag.write("/tf_static", static, stamp.to_nsec())
+            if on_message is not None:
+                on_message("/tf_static", stamp.to_nsec(), static)
             counts["/tf_static"] = 1
             readers = [Reader(src.device, _renamed(src.read, names), q, src.period).start()
                        for src, names in zip(sources, renames, strict=True)]
@@ -100,6 +106,8 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
                     while True:
                         topic, time_ns, message = q.get(timeout=wait)
                         bag.write(topic, message, time_ns)
+                        if on_message is not None:
+                            on_message(topic, time_ns, message)
                         counts[topic] = counts.get(topic, 0) + 1
                         first.setdefault(topic, time_ns)
                         last[topic] = time_ns
@@ -157,6 +165,18 @@ def _probe(args: argparse.Namespace) -> int:
     return 0
 
 
+def _live_view(address: str | None) -> Any:
+    """``--live``: a Foxglove live view of what is recorded (None without it)."""
+    if address is None:
+        return None
+    from kit.liveview import LiveView, parse_address
+
+    view = LiveView(*parse_address(address), name="kit record")
+    print(f"live view: open {view.url} in Foxglove Studio (Open connection -> Foxglove "
+          f"WebSocket)", flush=True)
+    return view
+
+
 def _record(args: argparse.Namespace) -> int:
     from kit.drivers.errors import DriverError
     from kit.drivers.probe import probe
@@ -174,8 +194,15 @@ def _record(args: argparse.Namespace) -> int:
                 print(f"{port}: found {answer.device} at {answer.baudrate} baud")
                 device, baud = answer.device, baud or answer.baudrate
             specs.append((device, port, baud))
-        record(specs, Path(args.out), args.robot,
-               math.inf if args.duration is None else args.duration)
+        view = _live_view(args.live)
+        try:
+            record(specs, Path(args.out), args.robot,
+                   math.inf if args.duration is None else args.duration,
+                   on_message=None if view is None else
+                   (lambda topic, time_ns, message: view.publish(topic, message, time_ns)))
+        finally:
+            if view is not None:
+                view.close()
     except DriverError as exc:
         print(f"kit record: {exc}", file=sys.stderr)
         return 1
@@ -202,4 +229,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--robot", default="uiabot", help="uiabot, igv, eddie or a .toml (uiabot)")
     p.add_argument("--duration", type=float, default=None,
                    help="seconds to record (default: until Ctrl-C)")
+    p.add_argument("--live", nargs="?", const="127.0.0.1:8765", default=None,
+                   metavar="HOST:PORT", help="also serve what is recorded to Foxglove Studio "
+                   "(Foxglove WebSocket, default ws://127.0.0.1:8765)")
     p.set_defaults(func=_record)
