@@ -12,6 +12,9 @@ Humble type store, in the form ROS 2 Humble's own reader takes and Jazzy's still
   latched topics (:data:`LATCHED_TOPICS`: ``/tf_static``, ``/map``, ``/robot_description``,
   the costmaps, ``/amcl_pose``) transient local with depth 1, as their ROS publishers offer
   them, so ``ros2 bag play`` latches them for RViz's and Foxglove's late subscribers;
+* MCAP chunks compressed with zstd (which the MCAP storage plugin of every ROS 2 release
+  reads; the metadata's ``compression_mode`` stays empty, as for ``ros2 bag record``'s
+  storage presets);
 * with ``clock_period``, ``/clock`` (``rosgraph_msgs/Clock``) before the messages it covers,
   for a bag stamped in simulation time (replay with ``use_sim_time:=true``).
 
@@ -134,7 +137,7 @@ class BagWriter:
 
     def __init__(self, path: str | Path, clock_period: float | None = None,
                  latched: Iterable[str] = ()) -> None:
-        from rosbags.rosbag2 import StoragePlugin
+        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 
         self.path = Path(path)
         if self.path.exists():
@@ -144,6 +147,8 @@ class BagWriter:
                              f"{clock_period!r}")
         self._writer = _writer_class()(self.path, version=METADATA_VERSION,
                                        storage_plugin=StoragePlugin.MCAP)
+        # zstd-compressed MCAP chunks, as ros2 bag record's "zstd_fast" preset writes them
+        self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self._connections: dict[str, Any] = {}
         self._types: dict[str, str] = {}
         self.latched = frozenset((*LATCHED_TOPICS, *latched))

@@ -251,7 +251,8 @@ def main(out_dir: Path, seed: int = 7, live: LiveView | None = None,
     _figure(grid, result, out_dir / "demo_loop.png")
     _animation(grid, result, out_dir / "demo_loop.html")
     counts = result["counts"]
-    print("bag topics: " + ", ".join(f"{t} ({n})" for t, n in sorted(counts.items())))
+    print("bag topics: " + ", ".join(f"{t} ({n})" for t, n in sorted(counts.items()))
+          + f", /clock (every {CLOCK_PERIOD:g} s)")
     print(f"wrote {out_dir / 'demo_loop.png'}, {out_dir / 'demo_loop.html'}, {nav_bag}/ "
           f"(MCAP ROS 2 bag) in {time.perf_counter() - start:.0f} s")
     return 0 if math.isfinite(figures["reached"]) else 1

@@ -234,6 +234,7 @@ def test_the_mcap_file_says_the_same_to_humbles_mcap_plugin(tmp_path):
         reader = make_reader(f)
         summary = reader.get_summary()
         assert reader.get_header().profile == "ros2"
+        assert {c.compression for c in summary.chunk_indexes} == {"zstd"}
         channels = {c.topic: c for c in summary.channels.values()}
         for topic, c in channels.items():
             schema = summary.schemas[c.schema_id]
