@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["TRAJECTORY_FORMATS", "negative_values", "plain", "write_trajectory"]
+__all__ = ["TRAJECTORY_FORMATS", "negative_values", "output_file", "plain", "write_trajectory"]
 
 _ROLE = re.compile(r":[a-z]+:`~?([^`]+)`")
 _LITERAL = re.compile(r"``([^`]+)``")
@@ -53,6 +53,16 @@ def negative_values(argv: Sequence[str]) -> list[str]:
         out.append(a)
         i += 1
     return out
+
+
+def output_file(out: str | Path, name: str) -> Path:
+    """``--out``: a folder (``name`` in it, the folder made) or, for the commands that once
+    took a file, a path ending in ``name``'s suffix, taken as that file."""
+    path = Path(out)
+    if path.suffix == Path(name).suffix:
+        return path
+    path.mkdir(parents=True, exist_ok=True)
+    return path / name
 
 
 TRAJECTORY_FORMATS = ("csv", "tum")
