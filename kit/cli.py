@@ -144,6 +144,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, KeyError) as exc:
         print(f"kit: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:              # a file the command could not read or write
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"kit: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

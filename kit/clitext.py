@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["TRAJECTORY_FORMATS", "negative_values", "output_file", "plain", "write_trajectory"]
+__all__ = ["TRAJECTORY_FORMATS", "negative_values", "output_dir", "output_file", "plain",
+           "write_trajectory"]
 
 _ROLE = re.compile(r":[a-z]+:`~?([^`]+)`")
 _LITERAL = re.compile(r"``([^`]+)``")
@@ -55,14 +56,31 @@ def negative_values(argv: Sequence[str]) -> list[str]:
     return out
 
 
+def output_dir(out: str | Path) -> Path:
+    """``--out``'s folder, made if need be.
+
+    Raises
+    ------
+    ValueError
+        ``out`` is a file, or cannot be made (the message says why).
+    """
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{path} is a file; --out takes a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"cannot make the folder {path}: {exc.strerror}") from None
+    return path
+
+
 def output_file(out: str | Path, name: str) -> Path:
     """``--out``: a folder (``name`` in it, the folder made) or, for the commands that once
     took a file, a path ending in ``name``'s suffix, taken as that file."""
     path = Path(out)
     if path.suffix == Path(name).suffix:
         return path
-    path.mkdir(parents=True, exist_ok=True)
-    return path / name
+    return output_dir(path) / name
 
 
 TRAJECTORY_FORMATS = ("csv", "tum")

@@ -106,6 +106,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as e:
         print(f"python -m sim {args.command}: {e}", file=sys.stderr)
         return 2
+    except OSError as e:                # a file the command could not read or write
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"python -m sim {args.command}: {where}{e.strerror or e}", file=sys.stderr)
+        return 2
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -133,11 +137,13 @@ def _live(args: argparse.Namespace) -> tuple[LiveView | None, float | None]:
 
 
 def _demo(args: argparse.Namespace) -> int:
+    from kit.clitext import output_dir
     from sim import navdemo
 
+    out = output_dir(args.out)
     view, speed = _live(args)
     try:
-        return navdemo.main(Path(args.out), args.seed, live=view, speed=speed)
+        return navdemo.main(out, args.seed, live=view, speed=speed)
     finally:
         if view is not None:
             view.close()
@@ -145,10 +151,10 @@ def _demo(args: argparse.Namespace) -> int:
 
 def _table_and_bags(out: str) -> tuple[Path, Path]:
     """``--out``: a folder (``navigate.csv`` in it) or, as before, the table's own file."""
-    path = Path(out)
-    if path.suffix == ".csv":
-        return path, path.parent
-    return path / "navigate.csv", path
+    from kit.clitext import output_file
+
+    table = output_file(out, "navigate.csv")
+    return table, table.parent
 
 
 def _navigate(args: argparse.Namespace) -> int:

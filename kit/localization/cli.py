@@ -335,6 +335,8 @@ def _run(args: argparse.Namespace) -> int:
 
     if not Path(args.bag).exists():
         raise ValueError(f"{args.bag}: no such bag")
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise ValueError(f"{args.out} is a file; --out takes a folder")
     start = _initial(args.initial)
     bag.check_topic(args.bag, args.scan_topic, "sensor_msgs/msg/LaserScan", "--scan-topic")
     params = _parameters(args, start)
@@ -364,8 +366,7 @@ def _run(args: argparse.Namespace) -> int:
 
 def _write(args: argparse.Namespace, grid: msgs.OccupancyGrid, steps: list[LocalizationStep],
            params: AmclParameters, updates: int) -> int:
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = clitext.output_dir(args.out)
     written = [_write_poses(steps, out, args.format).name, "localization.png"]
     _write_png(grid, steps, out / "localization.png", global_start=args.initial is None)
     if args.write_bag:

@@ -111,10 +111,9 @@ def write_figure(grid: Any, poses: np.ndarray, path: Path, title: str) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    out = Path(args.out)
+    out = clitext.output_dir(args.out)
     relations = carmen.read_relations(args.relations) if args.relations else None
     slam = _slam(args)
-    out.mkdir(parents=True, exist_ok=True)
     with _progress(len(slam.nodes), args.quiet, "map") as bar:
         grid = slam.occupancy_map(args.resolution, progress=bar.update)
     grid.save(out / "map.yaml")

@@ -73,3 +73,18 @@ def test_a_csv_trajectory_keeps_every_row(tmp_path):
         clitext.write_trajectory(tmp_path / "t", [0.0], [[1, 2, 3]], "kitti")
     with pytest.raises(ValueError, match=r"poses must be \(N, 3\)"):
         clitext.write_trajectory(tmp_path / "t", [0.0], [[1, 2]])
+
+
+def test_out_is_a_folder_and_a_file_in_its_place_is_refused(tmp_path, capsys):
+    from kit.cli import main
+
+    assert clitext.output_dir(tmp_path / "a" / "b") == tmp_path / "a" / "b"
+    assert (tmp_path / "a" / "b").is_dir()
+    assert clitext.output_file(tmp_path / "c", "plan.csv") == tmp_path / "c" / "plan.csv"
+    assert clitext.output_file(tmp_path / "d.csv", "plan.csv") == tmp_path / "d.csv"
+    (tmp_path / "taken").write_text("")
+    with pytest.raises(ValueError, match="taken is a file; --out takes a folder"):
+        clitext.output_dir(tmp_path / "taken")
+    (tmp_path / "log.clf").write_text("")
+    assert main(["slam", str(tmp_path / "log.clf"), "--out", str(tmp_path / "taken")]) == 2
+    assert "taken is a file; --out takes a folder" in capsys.readouterr().err
