@@ -56,8 +56,9 @@ def negative_values(argv: Sequence[str]) -> list[str]:
     return out
 
 
-def output_dir(out: str | Path) -> Path:
-    """``--out``'s folder, made if need be.
+def output_dir(out: str | Path, make: bool = True) -> Path:
+    """``--out``'s folder, made if need be (``make=False``: only checked, for a command to
+    refuse a bad ``--out`` before its work and make the folder after it).
 
     Raises
     ------
@@ -67,6 +68,8 @@ def output_dir(out: str | Path) -> Path:
     path = Path(out)
     if path.exists() and not path.is_dir():
         raise ValueError(f"{path} is a file; --out takes a folder")
+    if not make:
+        return path
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -335,8 +335,7 @@ def _run(args: argparse.Namespace) -> int:
 
     if not Path(args.bag).exists():
         raise ValueError(f"{args.bag}: no such bag")
-    if Path(args.out).exists() and not Path(args.out).is_dir():
-        raise ValueError(f"{args.out} is a file; --out takes a folder")
+    clitext.output_dir(args.out, make=False)
     start = _initial(args.initial)
     bag.check_topic(args.bag, args.scan_topic, "sensor_msgs/msg/LaserScan", "--scan-topic")
     params = _parameters(args, start)

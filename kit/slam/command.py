@@ -111,9 +111,10 @@ def write_figure(grid: Any, poses: np.ndarray, path: Path, title: str) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    out = clitext.output_dir(args.out)
+    out = clitext.output_dir(args.out, make=False)
     relations = carmen.read_relations(args.relations) if args.relations else None
     slam = _slam(args)
+    clitext.output_dir(out)
     with _progress(len(slam.nodes), args.quiet, "map") as bar:
         grid = slam.occupancy_map(args.resolution, progress=bar.update)
     grid.save(out / "map.yaml")
