@@ -59,9 +59,8 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
            duration: float = math.inf, log: Any = print,
            on_message: Callable[[str, int, Any], None] | None = None) -> dict[str, int]:
     """Record ``(device, port, baud)`` sources into a new MCAP bag at ``out`` for
-    ``duration`` seconds (or until Ctrl-C); returns the messages written per topic. Each
-    message written also goes to ``on_message(topic, time_ns, message)`` if given (a live
-    view).
+    ``duration`` seconds (or until Ctrl-C), each message also to ``on_message(topic,
+    time_ns, message)`` if given (a live view); returns the messages written per topic.
 
     Raises
     ------
@@ -92,11 +91,9 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
         with BagWriter(out) as bag:
             start = time.time()
             stamp = msgs.Time.from_sec(start)
-            static = msgs.TFMessage(description.static_transforms(stamp))
-            bag.write("/tf_static", static, stamp.to_nsec())
-            if on_message is not None:
-                on_message("/tf_static", stamp.to_nsec(), static)
-            counts["/tf_static"] = 1
+            # the first message drain() writes (and hands to on_message)
+            q.put(("/tf_static", stamp.to_nsec(),
+                   msgs.TFMessage(description.static_transforms(stamp))))
             readers = [Reader(src.device, _renamed(src.read, names), q, src.period).start()
                        for src, names in zip(sources, renames, strict=True)]
             end = time.monotonic() + duration
