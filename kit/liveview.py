@@ -13,7 +13,10 @@ Latched topics (:data:`kit.bag.LATCHED_TOPICS`: ``/map``, ``/tf_static``, the co
 are sent again to a client that subscribes after they were published, as ROS's transient
 local durability would.
 
-Open ``ws://127.0.0.1:8765`` in Foxglove Studio (Open connection → Foxglove WebSocket).
+Open ``ws://127.0.0.1:8765`` in Foxglove Studio (Open connection → Foxglove WebSocket). The
+server (foxglove-sdk 0.30) accepts the WebSocket subprotocol ``foxglove.sdk.v1`` — the same
+messages as ``foxglove.websocket.v1`` under its current name, as ``foxglove_bridge`` 3.x —
+and refuses a client that offers only the old name.
 
 ``foxglove_sdk`` is imported only when a view starts: ``import kit`` stays light.
 """
