@@ -295,3 +295,25 @@ def test_the_rules_take_a_bag_humble_itself_recorded():
     assert meta["version"] == 5 and meta["message_count"] == 9882
     assert meta["topics"]["/scan"]["qos"][0]["reliability"] == RELIABLE
     assert meta["topics"]["/robot_description"]["qos"][0]["durability"] == TRANSIENT_LOCAL
+
+
+@pytest.mark.slow
+def test_the_demos_navigation_bag_opens_under_humbles_rules(tmp_path):
+    """make demo's navigation phase (on the office's own map here, not the SLAM one): its
+    metadata under Humble's rules, the latched topics transient local, /clock leading."""
+    from sim import navdemo
+    from sim.world import load_world
+
+    grid = load_world("office").occupancy_grid(0.05, layer="lidar")
+    navdemo.navigate_on_map(grid, 7, tmp_path / "demo_loop")
+    meta = humble_metadata((tmp_path / "demo_loop" / "metadata.yaml").read_text("utf-8"))
+    topics = meta["topics"]
+    assert set(navdemo.TOPICS) | {"/clock", "/map", "/tf_static"} == topics.keys()
+    durable = {t for t, v in topics.items() if v["qos"][0]["durability"] == TRANSIENT_LOCAL}
+    assert durable == {"/map", "/tf_static", "/robot_description", "/amcl_pose",
+                       "/global_costmap/costmap", "/local_costmap/costmap"}
+    # a /clock message before each step that publishes (odometry at 50 Hz, commands at
+    # 20 Hz, the lidar's 5.5 Hz: about 60 per simulated second)
+    assert topics["/clock"]["message_count"] > 50 * meta["duration"] / 1e9
+    assert jazzy_extras((tmp_path / "demo_loop" / "metadata.yaml").read_text("utf-8")
+                        )["ros_distro"] == "humble"
