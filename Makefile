@@ -11,6 +11,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 PYTEST_ARGS ?=
+# make demo ARGS="--live --speed 4": options of python -m sim demo
+ARGS ?=
 JUPYTER_ARGS ?=
 # JupyterLab refuses to run as root unless told; containers often run as root
 ROOT_FLAG := $(if $(filter 0,$(shell id -u)),--allow-root,)
@@ -33,7 +35,7 @@ reset: $(STAMP)
 	$(BIN)/python -m grader.workdir reset $(LAB)
 
 demo: $(STAMP)
-	$(BIN)/python -m sim demo --out out $(if $(PARAMS),--params $(PARAMS),)
+	$(BIN)/python -m sim demo --out out $(if $(PARAMS),--params $(PARAMS),) $(ARGS)
 
 lint: $(STAMP)
 	$(BIN)/ruff check kit sim grader hardware tests benchmarks

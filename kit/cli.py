@@ -5,6 +5,7 @@
     kit robot FILE                  any robot's URDF, xacro file or bag: what was found in it
                                     and what was assumed (--params, --xacro-arg, --package-path)
     kit wheels igv 1.0 0.0          wheel speeds (and the IGV's RPM and drive units) for v, ω
+    kit sim demo|navigate|bench     the simulator (python -m sim ...), when it is installed
 
 Subcommands of a topic (``kit slam``, ``kit plan``, ...) live beside their algorithms, in a
 module with ``register(subparsers)`` listed in :data:`COMMAND_MODULES`; each is imported only
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.metadata
 import sys
 from collections.abc import Sequence
 
@@ -96,6 +98,10 @@ COMMAND_MODULES: tuple[str, ...] = ("kit.drivers._cli", "kit.planning._cli", "ki
                                      "kit.localization.cli")
 """Modules with a ``register(subparsers)`` that adds their subcommands."""
 
+PLUGIN_GROUP = "kit.commands"
+"""Entry points of installed packages whose ``register(subparsers)`` adds a subcommand: the
+simulator's ``kit sim …`` comes this way, so that ``kit`` never imports ``sim``."""
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="kit", description="The robotics course kit.")
@@ -124,15 +130,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_wheels)
     for module in COMMAND_MODULES:
         importlib.import_module(module).register(sub)
+    for entry in importlib.metadata.entry_points(group=PLUGIN_GROUP):
+        entry.load()(sub)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    from kit.clitext import negative_values
+
+    args = build_parser().parse_args(negative_values(sys.argv[1:] if argv is None else argv))
     try:
         return int(args.func(args))
     except (ValueError, KeyError) as exc:
         print(f"kit: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:              # a file the command could not read or write
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"kit: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
 
 

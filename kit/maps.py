@@ -136,8 +136,12 @@ def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
         raise MapError(f"{yaml_path}: resolution, occupied_thresh and free_thresh must be "
                        f"numbers, origin a list [x, y, yaw], negate 0 or 1") from None
     mode = str(meta.get("mode", "trinary"))
-    if not (resolution > 0 and len(origin) == 3 and all(map(math.isfinite, origin))):
-        raise MapError(f"{yaml_path}: resolution must be positive and origin [x, y, yaw]")
+    if not (math.isfinite(resolution) and resolution > 0):
+        raise MapError(f"{yaml_path}: resolution must be a positive number of metres per "
+                       f"cell; got {meta['resolution']!r}")
+    if len(origin) != 3 or not all(map(math.isfinite, origin)):
+        raise MapError(f"{yaml_path}: origin must be [x, y, yaw] (three finite numbers: m, m, "
+                       f"rad, the lower-left cell's corner); got {meta['origin']!r}")
     if not 0.0 <= free <= occupied <= 1.0:
         raise MapError(f"{yaml_path}: thresholds must satisfy 0 <= free_thresh <= "
                        f"occupied_thresh <= 1; got {free}, {occupied}")

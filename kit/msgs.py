@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "MESSAGE_TYPES",
+    "Clock",
     "Header",
     "Imu",
     "JointState",
@@ -39,10 +40,12 @@ __all__ = [
     "Path",
     "Point",
     "Pose",
+    "PoseArray",
     "PoseStamped",
     "PoseWithCovariance",
     "PoseWithCovarianceStamped",
     "Quaternion",
+    "String",
     "TFMessage",
     "Time",
     "Transform",
@@ -190,6 +193,23 @@ class Header(Message):
     frame_id: str = ""
 
 
+@dataclass(frozen=True, eq=False)
+class String(Message):
+    """std_msgs/String: one text (``/robot_description``'s URDF)."""
+
+    ROS_TYPE: ClassVar[str] = "std_msgs/msg/String"
+    data: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Clock(Message):
+    """rosgraph_msgs/Clock: the simulation's time on ``/clock`` (nodes with ``use_sim_time``
+    follow it instead of the wall clock)."""
+
+    ROS_TYPE: ClassVar[str] = "rosgraph_msgs/msg/Clock"
+    clock: Time = field(default_factory=Time)
+
+
 # ---------------------------------------------------------------- geometry_msgs
 
 @dataclass(frozen=True, eq=False)
@@ -244,6 +264,19 @@ class PoseWithCovarianceStamped(Message):
     ROS_TYPE: ClassVar[str] = "geometry_msgs/msg/PoseWithCovarianceStamped"
     header: Header = field(default_factory=Header)
     pose: PoseWithCovariance = field(default_factory=PoseWithCovariance)
+
+
+@dataclass(frozen=True, eq=False)
+class PoseArray(Message):
+    """Poses in ``header.frame_id`` without weights (a particle cloud, as ROS 1's ``amcl``
+    publishes it on ``/particlecloud``)."""
+
+    ROS_TYPE: ClassVar[str] = "geometry_msgs/msg/PoseArray"
+    header: Header = field(default_factory=Header)
+    poses: tuple[Pose, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "poses", tuple(self.poses))
 
 
 @dataclass(frozen=True, eq=False)
@@ -428,8 +461,8 @@ class TFMessage(Message):
 
 MESSAGE_TYPES: dict[str, type[Message]] = {
     cls.ROS_TYPE: cls
-    for cls in (Time, Header, Vector3, Point, Quaternion, Pose, PoseWithCovariance,
-                PoseWithCovarianceStamped, PoseStamped,
+    for cls in (Time, Header, String, Clock, Vector3, Point, Quaternion, Pose,
+                PoseWithCovariance, PoseWithCovarianceStamped, PoseArray, PoseStamped,
                 Twist, TwistWithCovariance, Transform, TransformStamped, Odometry, Path,
                 MapMetaData, OccupancyGrid, LaserScan, Imu, JointState, TFMessage)
 }

@@ -5,13 +5,14 @@ patch, into an office and back — steering by its own wheel odometry (*see*: en
 kit's odometry; *think*: turn towards the next waypoint; *act*: ``cmd_vel`` → inverse
 kinematics → wheel servos). The demo writes a PNG (true path, odometry path, lidar returns)
 and an MCAP ROS 2 bag with ``/scan``, ``/odom``, ``/imu``, ``/joint_states``, ``/cmd_vel``,
-``/tf`` and ``/tf_static``, and prints what it wrote.
+``/tf``, ``/tf_static`` and ``/clock`` (simulation time), and prints what it wrote.
 """
 
 from __future__ import annotations
 
 import math
 import shutil
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -137,20 +138,24 @@ class ScanLog(Node):
 
 
 def run(seconds: float = 240.0, seed: int = 7, people: int = 4,
-        bag_path: Path | None = None) -> dict[str, object]:
-    """Drive the route; returns paths, scans and counts (and writes the bag if asked)."""
+        bag_path: Path | None = None, nodes: Sequence[Node] = (),
+        clock_period: float | None = 0.01) -> dict[str, object]:
+    """Drive the route; returns paths, scans and counts (and writes the bag if asked, with
+    ``/clock`` every ``clock_period`` simulated seconds). ``nodes`` run beside the drive's
+    own (a live view); they get ``/tf_static`` first."""
     sim = Simulation(world="office", robot="uiabot", seed=seed, people=people)
-    bag = BagWriter(bag_path) if bag_path is not None else None
+    bag = BagWriter(bag_path, clock_period=clock_period) if bag_path is not None else None
     recorder = BagRecorder(TOPICS, bag)
     follower = RouteFollower()
     scans = ScanLog()
     # the recorder comes after the odometry node, so it sees each step's /odom and /tf
-    runner = Runner(sim, [WheelOdometryNode(), recorder, scans], controller=follower,
+    runner = Runner(sim, [WheelOdometryNode(), recorder, scans, *nodes], controller=follower,
                     signals={"truth": truth_pose(), "odometry": pose_of("/odom")})
     if bag is not None:
         bag.__enter__()
     try:
-        recorder.on_message("/tf_static", sim.static_transforms(), 0.0)
+        for node in (recorder, *nodes):
+            node.on_message("/tf_static", sim.static_transforms(), 0.0)
         recording = runner.run(seconds, until=lambda r: follower.done)
     finally:
         if bag is not None:

@@ -33,7 +33,7 @@ import csv
 import dataclasses
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -160,6 +160,10 @@ class GoalResult:
                 f"{self.path_length:.3f}", f"{self.shortest_length:.3f}",
                 self.collisions_static, self.collisions_people,
                 f"{self.min_person_distance:.3f}", self.reason]
+
+
+Observers = Callable[[int, "NavigationNode", Simulation, msgs.OccupancyGrid], Sequence[Node]]
+"""``(episode index, navigation node, simulation, map) -> nodes`` run beside an episode."""
 
 
 # ---------------------------------------------------------------- localization sources
@@ -586,14 +590,16 @@ def localization_source(s: EpisodeSetup, localization: str, seed: int,
 
 def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
                 controller: str | Controller = "rpp", config: NavigationConfig | None = None,
-                progress_bar: str | None = None) -> NavigationNode:
+                progress_bar: str | None = None,
+                observers: Observers | None = None) -> NavigationNode:
     """One seeded episode with a localization source; the node (its ``results``, its
     ``pose_errors``, its ``trail``). With SLAM the navigator starts from unknown space.
     ``controller``: ``"rpp"``, ``"dwb"`` or a controller object (e.g. the kit's
     controllers with a student's functions in them, Lab 10); ``config``: the navigator's
     configuration (:func:`load_params`), else the kit's with ``controller``;
     ``progress_bar`` names a bar over the episode's simulated time
-    (:func:`kit.progress.progress`)."""
+    (:func:`kit.progress.progress`); ``observers(index, node, sim, map)`` gives nodes that
+    run beside it (a bag, a live view)."""
     route = s.route
     sim = Simulation(world=s.world, robot=s.robot, seed=seed, people=route.people,
                      start=route.start)
@@ -605,18 +611,20 @@ def run_episode(s: EpisodeSetup, index: int, seed: int, localization: Any,
     cruise = d.cruise_velocity
     limits = [30.0 + 4.0 * (x if math.isfinite(x) else 30.0) / cruise for x in s.shortest]
     node = NavigationNode(nav, localization, route.goals, limits, index, s.shortest)
-    runner = Runner(sim, [WheelOdometryNode(), node], record_rate=1.0)
+    extra = list(observers(index, node, sim, s.nav_grid)) if observers is not None else []
+    runner = Runner(sim, [WheelOdometryNode(), node, *extra], record_rate=1.0)
     runner.run(sum(limits) + 1.0, until=lambda r: node.done, progress_bar=progress_bar)
     return node
 
 
 def episode(s: EpisodeSetup, index: int, seed: int, localization: str = "truth",
             controller: str | Controller = "rpp", config: NavigationConfig | None = None,
-            progress_bar: str | None = None) -> list[GoalResult]:
+            progress_bar: str | None = None,
+            observers: Observers | None = None) -> list[GoalResult]:
     """One seeded episode; the route's rows."""
     amcl = config.amcl if config is not None else None
     return run_episode(s, index, seed, localization_source(s, localization, seed, amcl),
-                       controller, config, progress_bar).results
+                       controller, config, progress_bar, observers).results
 
 
 def load_params(path: str | Path, robot: str | RobotDescription,
@@ -636,11 +644,12 @@ def navigate(world: str = "office", robot: str | RobotDescription = "uiabot", ep
              seed: int = 0,
              localization: str = "truth", controller: str = "rpp", route: str | None = None,
              keepout: bool | None = None, bar: bool = True,
-             people: int | None = None, config: NavigationConfig | None = None
-             ) -> list[GoalResult]:
+             people: int | None = None, config: NavigationConfig | None = None,
+             observers: Observers | None = None) -> list[GoalResult]:
     """Seeded episodes ``seed, seed + 1, …``; every goal's row. ``people``: how many walk
     (default: the route's); ``config``: the navigator's configuration (from a Nav2 parameter
-    file: :func:`load_params`; its controller then drives)."""
+    file: :func:`load_params`; its controller then drives); ``observers``: see
+    :func:`run_episode`."""
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1; got {episodes}")
     if people is not None and (isinstance(people, bool) or not isinstance(people, int)
@@ -657,7 +666,8 @@ def navigate(world: str = "office", robot: str | RobotDescription = "uiabot", ep
     rows: list[GoalResult] = []
     indices = range(episodes)
     for i in progress(indices, desc=f"{world} episodes", total=episodes) if bar else indices:
-        rows.extend(episode(s, i, seed + i, localization, controller, config))
+        rows.extend(episode(s, i, seed + i, localization, controller, config,
+                            observers=observers))
     return rows
 
 

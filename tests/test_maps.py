@@ -76,3 +76,18 @@ def test_truncated_and_malformed_maps_name_the_file(tmp_path):
     (tmp_path / "q.yaml").write_text("image: q.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
     with pytest.raises(maps.MapError, match="not a PGM"):
         maps.read_map(tmp_path / "q.yaml")
+
+
+@pytest.mark.parametrize(("line", "message"), [
+    ("resolution: -0.05\norigin: [0, 0, 0]",
+     r"r\.yaml: resolution must be a positive number of metres per cell; got -0\.05"),
+    ("resolution: .nan\norigin: [0, 0, 0]", r"resolution must be a positive number .* got nan"),
+    ("resolution: 0.05\norigin: [1.5, 2]",
+     r"r\.yaml: origin must be \[x, y, yaw\] .* got \[1\.5, 2\]"),
+    ("resolution: 0.05\norigin: [0, .inf, 0]", r"origin must be \[x, y, yaw\]"),
+])
+def test_a_bad_resolution_and_a_bad_origin_get_their_own_messages(tmp_path, line, message):
+    (tmp_path / "m.pgm").write_bytes(b"P5\n2 2\n255\n" + bytes(4))
+    (tmp_path / "r.yaml").write_text(f"image: m.pgm\n{line}\n")
+    with pytest.raises(maps.MapError, match=message):
+        maps.read_map(tmp_path / "r.yaml")

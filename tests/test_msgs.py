@@ -49,6 +49,9 @@ SAMPLES = [
                     [0.5, -0.5], []),
     msgs.TFMessage((transform, transform)),
     msgs.PoseWithCovarianceStamped(msgs.Header(stamp, "map"), msgs.PoseWithCovariance(pose, cov)),
+    msgs.String("<robot name='uiabot'/>"),
+    msgs.Clock(stamp),
+    msgs.PoseArray(msgs.Header(stamp, "map"), (pose, msgs.Pose())),
 ]
 
 

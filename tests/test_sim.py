@@ -87,4 +87,4 @@ def test_demo_drives_the_route_and_writes_figure_and_bag(tmp_path, capsys):
     assert "9 of 9 waypoints reached" in out and "collisions: 0" in out
     topics = {t for t, _, _ in read_bag(tmp_path / "demo_office")}
     assert topics == {"/scan", "/odom", "/imu", "/joint_states", "/cmd_vel", "/tf",
-                      "/tf_static"}
+                      "/tf_static", "/clock"}

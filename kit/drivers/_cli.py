@@ -213,6 +213,18 @@ def _probe(args: argparse.Namespace) -> int:
     return 0
 
 
+def _live_view(address: str | None) -> Any:
+    """``--live``: a Foxglove live view of what is recorded (None without it)."""
+    if address is None:
+        return None
+    from kit.liveview import LiveView, parse_address
+
+    view = LiveView(*parse_address(address), name="kit record")
+    print(f"live view: open {view.url} in Foxglove Studio (Open connection -> Foxglove "
+          f"WebSocket)", flush=True)
+    return view
+
+
 def _record(args: argparse.Namespace) -> int:
     from kit.drivers.errors import DriverError
     from kit.drivers.probe import probe
@@ -230,8 +242,15 @@ def _record(args: argparse.Namespace) -> int:
                 print(f"{port}: found {answer.device} at {answer.baudrate} baud")
                 device, baud = answer.device, baud or answer.baudrate
             specs.append((device, port, baud))
-        record(specs, Path(args.out), args.robot,
-               math.inf if args.duration is None else args.duration)
+        view = _live_view(args.live)
+        try:
+            record(specs, Path(args.out), args.robot,
+                   math.inf if args.duration is None else args.duration,
+                   on_message=None if view is None else
+                   (lambda topic, time_ns, message: view.publish(topic, message, time_ns)))
+        finally:
+            if view is not None:
+                view.close()
     except DriverError as exc:
         print(f"kit record: {exc}", file=sys.stderr)
         return 1
@@ -277,6 +296,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--robot", default="uiabot", help="uiabot, igv, eddie or a .toml (uiabot)")
     p.add_argument("--duration", type=float, default=None,
                    help="seconds to record (default: until Ctrl-C)")
+    p.add_argument("--live", nargs="?", const="127.0.0.1:8765", default=None,
+                   metavar="HOST:PORT", help="also serve what is recorded to Foxglove Studio "
+                   "(Foxglove WebSocket, default ws://127.0.0.1:8765)")
     p.set_defaults(func=_record)
     p = subparsers.add_parser(
         "stop", help="stop a robot's motors now (from another terminal)",

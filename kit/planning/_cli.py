@@ -1,7 +1,8 @@
 """``kit plan``: solve the problems of a Moving AI scenario file, one CSV row each.
 
-    kit plan maps/dao/arena.map --scen scenarios/dao/arena.map.scen --out arena.csv
+    kit plan maps/dao/arena.map --scen scenarios/dao/arena.map.scen --out results
 
+writes ``results/plan.csv`` (an ``--out`` ending in ``.csv`` is taken as the file itself).
 The CSV has the header ``index,length,optimal,expanded,seconds``: the scenario's position in
 the file, the length found (octile moves, in cells; ``inf`` when unreachable), the published
 optimum, the cells expanded and the query's wall time. The summary line counts the problems
@@ -14,6 +15,7 @@ from __future__ import annotations
 import argparse
 import csv
 import statistics
+import sys
 import time
 from typing import Any
 
@@ -34,21 +36,27 @@ def _plan(args: argparse.Namespace) -> int:
                         cost_travel_multiplier=0.0)
     run = {"astar": search.astar, "dijkstra": search.dijkstra,
            "theta_star": search.theta_star}[args.algorithm]
+    from tqdm import tqdm
+
+    from kit.clitext import output_file
+
+    out = output_file(args.out, "plan.csv")
     rows: list[tuple[int, float, float, int, float]] = []
-    for s in scenarios:
+    for s in tqdm(scenarios, desc="plan", unit="problem", disable=args.quiet,
+                  file=sys.stderr):
         begin = time.perf_counter()
         result = run(s.start, s.goal)
         rows.append((s.index, result.length, s.optimal_length, result.expanded,
                      time.perf_counter() - begin))
     try:
-        with open(args.out, "w", newline="", encoding="utf-8") as fh:
+        with open(out, "w", newline="", encoding="utf-8") as fh:
             writer = csv.writer(fh)
             writer.writerow(["index", "length", "optimal", "expanded", "seconds"])
             for index, length, optimal, expanded, seconds in rows:
                 writer.writerow([index, f"{length:.10g}", f"{optimal:.10g}", expanded,
                                  f"{seconds:.6f}"])
     except OSError as exc:
-        raise ValueError(f"cannot write {args.out}: {exc.strerror}") from None
+        raise ValueError(f"cannot write {out}: {exc.strerror}") from None
     optimal = sum(abs(r[1] - s.optimal_length) <= s.tolerance
                   for r, s in zip(rows, scenarios, strict=True))
     shorter = sum(r[1] < s.optimal_length - s.tolerance for r, s in zip(rows, scenarios,
@@ -58,7 +66,7 @@ def _plan(args: argparse.Namespace) -> int:
     print(f"{grid.name}: {len(rows)} scenarios with {args.algorithm}"
           f"{' (corner cutting)' if args.corner_cutting else ''}: {optimal} at the published "
           f"optimum, {shorter} shorter, {len(rows) - optimal - shorter - unreached} longer, "
-          f"{unreached} unreachable; median query {median * 1e3:.2f} ms -> {args.out}")
+          f"{unreached} unreachable; median query {median * 1e3:.2f} ms -> {out}")
     return 0
 
 
@@ -70,7 +78,9 @@ def register(subparsers: Any) -> None:
                     "index,length,optimal,expanded,seconds per problem.")
     p.add_argument("map", help="the Moving AI .map file")
     p.add_argument("--scen", required=True, help="its .map.scen scenario file")
-    p.add_argument("--out", required=True, help="the CSV file to write")
+    p.add_argument("--out", required=True,
+                   help="output folder: plan.csv (a name ending in .csv: that file)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--corner-cutting", action="store_true",
                    help="allow diagonal moves past blocked corners (the benchmark forbids them; "
                         "A* and Dijkstra only)")

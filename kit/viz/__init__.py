@@ -12,7 +12,7 @@ grids, maps with trajectories, scans), ``_localization`` (particle clouds), ``_n
 from kit.viz._control import plot_signals, plot_step_response
 from kit.viz._drivers import plot_lidar_turn
 from kit.viz._estimation import plot_headings, plot_kalman_track, plot_odometry_drift
-from kit.viz._grid import plot_grid, plot_map_trajectory, plot_scan
+from kit.viz._grid import crop_to_known, known_extent, plot_grid, plot_map_trajectory, plot_scan
 from kit.viz._localization import animate_particles, animation_html, plot_particles
 from kit.viz._navigation import plot_rollouts
 from kit.viz._planning import costmap_colors, plot_costmap, plot_path, plot_search
@@ -22,6 +22,8 @@ __all__ = [
     "animate_particles",
     "animation_html",
     "costmap_colors",
+    "crop_to_known",
+    "known_extent",
     "plot_costmap",
     "plot_grid",
     "plot_headings",

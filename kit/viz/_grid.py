@@ -10,7 +10,7 @@ from kit import msgs, perception
 from kit.mapping import OccupancyGridMap
 from kit.viz._base import axes as _axes
 
-__all__ = ["plot_grid", "plot_map_trajectory", "plot_scan"]
+__all__ = ["crop_to_known", "known_extent", "plot_grid", "plot_map_trajectory", "plot_scan"]
 
 
 def _image(grid: OccupancyGridMap | msgs.OccupancyGrid
@@ -28,9 +28,37 @@ def _image(grid: OccupancyGridMap | msgs.OccupancyGrid
     return p, (x0, x0 + cols * res, y0, y0 + rows * res)
 
 
+def known_extent(grid: OccupancyGridMap | msgs.OccupancyGrid, margin: float = 0.5,
+                 stray: float = 0.001) -> tuple[float, float, float, float]:
+    """``(x_min, x_max, y_min, y_max)`` [m] of the grid's known cells, ``margin`` metres
+    wider (the whole grid when nothing is known). The ``stray`` share of known cells farthest
+    out on each side (beams through a window, a lone reflection) is left out."""
+    p, (x0, x1, y0, y1) = _image(grid)
+    rows, cols = np.nonzero(~np.isnan(p))
+    if len(rows) == 0:
+        return x0, x1, y0, y1
+    res = (x1 - x0) / p.shape[1]
+    c0, c1 = np.quantile(cols, [stray, 1 - stray])
+    r0, r1 = np.quantile(rows, [stray, 1 - stray])
+    return (max(x0, x0 + c0 * res - margin), min(x1, x0 + (c1 + 1) * res + margin),
+            max(y0, y0 + r0 * res - margin), min(y1, y0 + (r1 + 1) * res + margin))
+
+
+def crop_to_known(ax: Axes, grid: OccupancyGridMap | msgs.OccupancyGrid,
+                  margin: float = 0.5) -> Axes:
+    """Show only the grid's known part (:func:`known_extent`) at a 1:1 aspect; call it again
+    after other ``plot_*`` calls on the same axes, which let the limits follow their data."""
+    x0, x1, y0, y1 = known_extent(grid, margin)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    return ax
+
+
 def plot_grid(grid: OccupancyGridMap | msgs.OccupancyGrid, ax: Axes | None = None,
-              title: str = "") -> Axes:
-    """A grid in the map frame [m]: white free, black occupied, grey unknown."""
+              title: str = "", crop: bool = False) -> Axes:
+    """A grid in the map frame [m]: white free, black occupied, grey unknown; ``crop`` shows
+    only its known part (:func:`known_extent`)."""
     ax = _axes(ax, equal=True)
     p, extent = _image(grid)
     shown = np.where(np.isnan(p), 0.5, p)
@@ -38,6 +66,8 @@ def plot_grid(grid: OccupancyGridMap | msgs.OccupancyGrid, ax: Axes | None = Non
               interpolation="nearest")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
+    if crop:
+        crop_to_known(ax, grid)
     if title:
         ax.set_title(title)
     return ax

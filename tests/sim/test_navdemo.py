@@ -19,6 +19,10 @@ def test_the_demo_maps_the_office_then_navigates_it_and_writes_its_files(tmp_pat
     assert reached >= 2, out                 # the seeded run reaches all 3 (see the note)
     assert "0 contacts with walls" in out
     assert (tmp_path / "demo_loop.png").stat().st_size > 30_000
-    assert "<script" in (tmp_path / "demo_loop.html").read_text(encoding="utf-8")
+    html = (tmp_path / "demo_loop.html").read_text(encoding="utf-8")
+    assert "<script" in html and "http" not in html     # plays offline: nothing fetched
+    assert "Plays at" in html                            # its speed stated
     topics = {t for t, _, _ in read_bag(tmp_path / "demo_loop")}
-    assert {"/map", "/scan", "/odom", "/tf", "/tf_static", "/plan", "/cmd_vel"} <= topics
+    assert {"/map", "/scan", "/odom", "/tf", "/tf_static", "/plan", "/cmd_vel", "/clock",
+            "/amcl_pose", "/particlecloud", "/local_plan", "/global_costmap/costmap",
+            "/local_costmap/costmap", "/robot_description"} <= topics

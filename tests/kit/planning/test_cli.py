@@ -74,3 +74,14 @@ def test_plan_on_the_arena_benchmark(shared_data, tmp_path, capsys):
     rows = list(csv.DictReader(out.open()))
     assert len(rows) == 160
     assert "160 at the published optimum" in capsys.readouterr().out
+
+
+def test_plan_out_is_a_folder_with_plan_csv_in_it(tmp_path, capsys):
+    (tmp_path / "tiny.map").write_text(MAP)
+    (tmp_path / "tiny.map.scen").write_text(SCEN)
+    assert cli.main(["plan", str(tmp_path / "tiny.map"), "--scen",
+                     str(tmp_path / "tiny.map.scen"), "--out", str(tmp_path / "results"),
+                     "--quiet"]) == 0
+    rows = list(csv.reader((tmp_path / "results" / "plan.csv").open()))
+    assert len(rows) == 4
+    assert f"-> {tmp_path / 'results' / 'plan.csv'}" in capsys.readouterr().out
