@@ -21,6 +21,12 @@ __all__ = ["Imu", "Lidar", "encoder_counts"]
 
 FloatArray = NDArray[np.float64]
 GRAVITY = 9.80665
+_time = msgs.Time.trusted_builder()
+_header = msgs.Header.trusted_builder()
+_vector3 = msgs.Vector3.trusted_builder()
+_quaternion = msgs.Quaternion.trusted_builder()
+_imu = msgs.Imu.trusted_builder()
+_ZERO_VECTOR = msgs.Vector3(0.0, 0.0, 0.0)
 
 
 def encoder_counts(wheel_angle: FloatArray, ticks_per_wheel_turn: float, offset: NDArray[Any],
@@ -57,7 +63,7 @@ class Imu:
         self.gyro_bias = float(rng.normal(0.0, float(params.get("gyro_bias_std", 0.0))))
         self.period = 1.0 / self.rate
         self.next_time = 0.0
-        self._normals = np.empty(0)
+        self._normals: list[float] = []
         self._next_normal = 0
         self.cov_orientation = self._cov(self.yaw_std ** 2 or 1e-6, 1e-6)
         self.cov_gyro = self._cov(self.gyro_std ** 2, 1e-6) if self.gyro_std else \
@@ -82,14 +88,14 @@ class Imu:
     def due(self, time: float) -> bool:
         return time + 1e-12 >= self.next_time
 
-    def _draws(self) -> tuple[float, ...]:
+    def _draws(self) -> list[float]:
         """Seven standard normal draws, taken from a block drawn ahead (fewer rng calls)."""
         i = self._next_normal
         if i + 7 > len(self._normals):
-            self._normals = self.rng.standard_normal(7 * 256)
+            self._normals = self.rng.standard_normal(7 * 256).tolist()
             i = 0
         self._next_normal = i + 7
-        return tuple(self._normals[i:i + 7].tolist())
+        return self._normals[i:i + 7]
 
     def measure(self, time: float, yaw: float, yaw_rate: float, yaw_accel: float,
                 accel_body: tuple[float, float]) -> msgs.Imu:
@@ -105,21 +111,20 @@ class Imu:
         mx, my = self.mount
         ax = accel_body[0] - yaw_accel * my - yaw_rate * yaw_rate * mx
         ay = accel_body[1] + yaw_accel * mx - yaw_rate * yaw_rate * my
-        # built with Message.trusted: every value here is already a float or a read-only
-        # array of the right shape, and this runs at the IMU's rate for every robot
-        vector, trusted = msgs.Vector3.trusted, msgs.Imu.trusted
+        # built with Message.trusted's builders: every value here is already a float or a
+        # read-only array of the right shape, and this runs at the IMU's rate for every robot
         if self.accel_std:
             sd = self.accel_std
-            accel = vector(ax + sd * n_ax, ay + sd * n_ay, GRAVITY + sd * n_az)
+            accel = _vector3(ax + sd * n_ax, ay + sd * n_ay, GRAVITY + sd * n_az)
         else:
-            accel = vector(0.0, 0.0, 0.0)
+            accel = _ZERO_VECTOR   # messages are immutable: one zero vector serves them all
         half = 0.5 * measured_yaw
         nanoseconds = round(time * 1e9)
-        stamp = msgs.Time.trusted(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
-        return trusted(msgs.Header.trusted(stamp, self.frame_id),
-                       msgs.Quaternion.trusted(0.0, 0.0, math.sin(half), math.cos(half)),
-                       self.cov_orientation, vector(0.0, 0.0, float(rate)), self.cov_gyro,
-                       accel, self.cov_accel)
+        stamp = _time(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
+        return _imu(_header(stamp, self.frame_id),
+                    _quaternion(0.0, 0.0, math.sin(half), math.cos(half)),
+                    self.cov_orientation, _vector3(0.0, 0.0, float(rate)), self.cov_gyro,
+                    accel, self.cov_accel)
 
 
 class Lidar:
