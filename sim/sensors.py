@@ -12,10 +12,11 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 from kit import msgs
-from sim.raycast import beam_geometry, cast_scan, segments_near
+from sim.raycast import _beam_geometry, _cast_scan, segments_near
 
 __all__ = ["Imu", "Lidar", "encoder_counts"]
 
@@ -27,6 +28,33 @@ _vector3 = msgs.Vector3.trusted_builder()
 _quaternion = msgs.Quaternion.trusted_builder()
 _imu = msgs.Imu.trusted_builder()
 _ZERO_VECTOR = msgs.Vector3(0.0, 0.0, 0.0)
+_laser_scan = msgs.LaserScan.trusted_builder()
+_NO_PEOPLE = np.zeros((1, 0, 3))
+_NO_DRAWS = np.zeros(0)
+
+
+@njit(cache=True)
+def _measure(ranges: FloatArray, noise: FloatArray, drops: FloatArray, dropout: float,
+             range_min: float, range_max: float
+             ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:  # pragma: no cover
+    """A scan's true ranges [m] as the lidar reports them: plus ``noise`` (none when empty),
+    a beam dropped (``inf``) where ``drops < dropout`` (none when empty), ``inf`` beyond
+    ``range_max``, ``-inf`` under ``range_min`` (REP-117: too close to measure), in float32;
+    and the intensities (47 for a return, 0 for none)."""
+    n = ranges.shape[0]
+    out = np.empty(n, dtype=np.float32)
+    intensities = np.empty(n, dtype=np.float32)
+    for i in range(n):
+        r = ranges[i] + noise[i] if noise.shape[0] else ranges[i]
+        if drops.shape[0] and drops[i] < dropout:
+            r = np.inf
+        if r > range_max:
+            r = np.inf
+        if r < range_min:
+            r = -np.inf
+        out[i] = np.float32(r)
+        intensities[i] = np.float32(47.0) if np.isfinite(out[i]) else np.float32(0.0)
+    return out, intensities
 
 
 def encoder_counts(wheel_angle: FloatArray, ticks_per_wheel_turn: float, offset: NDArray[Any],
@@ -174,7 +202,10 @@ class Lidar:
         self._people: list[FloatArray] = []
         self.last_ranges: FloatArray = np.full(self.beams, np.inf)
         """float64 ranges of the last scan, before noise (for tests against geometry)."""
-        self._near: tuple[int, FloatArray, FloatArray] | None = None
+        self._near: tuple[FloatArray, float, float, FloatArray] | None = None
+        self._circles_cache: tuple[FloatArray, FloatArray] | None = None
+        self._mount_x, self._mount_y = float(mount[0]), float(mount[1])
+        self._angle0 = float(mount[2]) + float(self.angle_min)   # as beam_geometry adds them
         # the scan's float32 fields, rounded once (LaserScan stores them as float32)
         self._fields32 = tuple(float(np.float32(v)) for v in (
             self.angle_min, self.angle_min + self.increment * (self.beams - 1), self.increment,
@@ -200,41 +231,52 @@ class Lidar:
         return self._finish(segments, circles)
 
     def _finish(self, segments: FloatArray, circles: FloatArray) -> msgs.LaserScan:
-        origins, angles, step = beam_geometry(
+        # beam_geometry and cast_scan without their wrappers' conversions: every argument
+        # here already has its type, and this runs for every scan of every robot
+        ox, oy, angles, step = _beam_geometry(
             np.array(self._times), np.array(self._poses), self.scan_start,
-            self.time_increment, self.beams, self.mount, self.angle_min, self.increment)
-        near = self._segments_near(segments, origins[0])
+            self.time_increment, self.beams, self._mount_x, self._mount_y, self._angle0,
+            self.increment)
+        near = self._segments_near(segments, float(ox[0]), float(oy[0]))
         # each beam sees the people where they were during its physics step
-        people = np.stack(self._people) if self._people and self._people[0].size else \
-            np.zeros((1, 0, 3))
-        ranges = cast_scan(origins, angles, near, circles, people, step, self.range_max)
+        people = np.array(self._people) if self._people[0].size else _NO_PEOPLE
+        ranges = _cast_scan(ox, oy, angles, near, self._circles(circles), people, step,
+                            self.range_max)
         # keep the last step: the next scan's first beams may fall inside it
         self._times, self._poses = self._times[-2:], self._poses[-2:]
         self._people = self._people[-1:]
-        self.last_ranges = ranges.copy()
-        measured = ranges + self.rng.normal(0.0, self.noise_std, self.beams) \
-            if self.noise_std else ranges.copy()
-        if self.dropout:
-            measured[self.rng.random(self.beams) < self.dropout] = np.inf
-        measured[measured > self.range_max] = np.inf
-        measured[measured < self.range_min] = -np.inf  # REP-117: too close to measure
-        ranges32 = measured.astype(np.float32)
-        intensities = np.where(np.isfinite(ranges32), np.float32(47.0), np.float32(0.0))
+        self.last_ranges = ranges
+        noise = self.rng.normal(0.0, self.noise_std, self.beams) if self.noise_std else \
+            _NO_DRAWS
+        drops = self.rng.random(self.beams) if self.dropout else _NO_DRAWS
+        ranges32, intensities = _measure(ranges, noise, drops, self.dropout, self.range_min,
+                                         self.range_max)
         ranges32.flags.writeable = intensities.flags.writeable = False  # handed over
         # every field is already normal (float32-rounded numbers, read-only float32 arrays)
-        scan = msgs.LaserScan.trusted(
-            msgs.Header.trusted(msgs.Time.from_sec(self.scan_start), self.frame_id),
-            *self._fields32, ranges32, intensities)
+        nanoseconds = round(self.scan_start * 1e9)      # msgs.Time.from_sec's rounding
+        stamp = _time(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
+        scan = _laser_scan(_header(stamp, self.frame_id), *self._fields32, ranges32,
+                           intensities)
         self.scan_start += 1.0 / self.rate
         return scan
 
-    def _segments_near(self, segments: FloatArray, origin: FloatArray) -> FloatArray:
-        """The walls within reach, culled again only when the sensor has moved more than a
-        metre from where they were last culled (the cull keeps a metre to spare, so the
-        beams meet the same walls)."""
+    def _circles(self, circles: FloatArray) -> FloatArray:
+        """The world's discs as the caster takes them (contiguous (K, 3)), converted once."""
+        cached = self._circles_cache
+        if cached is None or cached[0] is not circles:
+            self._circles_cache = cached = (circles, np.ascontiguousarray(
+                circles, dtype=np.float64).reshape(-1, 3))
+        return cached[1]
+
+    def _segments_near(self, segments: FloatArray, x: float, y: float) -> FloatArray:
+        """The walls within reach of the sensor at (x, y), culled again only when it has moved
+        more than a metre from where they were last culled (the cull keeps a metre to spare,
+        so the beams meet the same walls)."""
         cached = self._near
-        if cached is None or cached[0] != id(segments) or \
-                abs(origin[0] - cached[1][0]) > 1.0 or abs(origin[1] - cached[1][1]) > 1.0:
-            near = segments_near(segments, origin, self.range_max + 2.0)
-            self._near = cached = (id(segments), origin.copy(), near)
-        return cached[2]
+        if cached is None or cached[0] is not segments or \
+                abs(x - cached[1]) > 1.0 or abs(y - cached[2]) > 1.0:
+            near = np.ascontiguousarray(
+                segments_near(segments, np.array((x, y)), self.range_max + 2.0),
+                dtype=np.float64).reshape(-1, 4)
+            self._near = cached = (segments, x, y, near)
+        return cached[3]
