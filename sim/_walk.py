@@ -357,10 +357,10 @@ def _walk_aside(i: int, speed: float, px: float, py: float, positions: FloatArra
 @njit(cache=True)
 def arrive(positions: FloatArray, routes: FloatArray, route_start: IntArray,
            route_length: IntArray, alcove: IntArray, target: IntArray, direction: IntArray
-           ) -> NDArray[np.bool_]:  # pragma: no cover - compiled
+           ) -> IntArray:  # pragma: no cover - compiled
     """People at their route's next point (within 0.3 m) turn to the one after it (back along
-    the route at its ends); True for each who needs a new walking speed (the caller draws
-    them, in order). People stepping aside are left alone."""
+    the route at its ends); returns who need a new walking speed, in order (the caller draws
+    them). People stepping aside are left alone."""
     new_speed = np.zeros(positions.shape[0], dtype=np.bool_)
     for i in range(positions.shape[0]):
         if alcove[i] >= 0:
@@ -375,7 +375,7 @@ def arrive(positions: FloatArray, routes: FloatArray, route_start: IntArray,
                     nxt = target[i] + direction[i]
                 target[i] = nxt
             new_speed[i] = True
-    return new_speed
+    return np.flatnonzero(new_speed)
 
 
 @njit(cache=True)

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from kit import msgs
 from sim.raycast import _beam_geometry, _cast_scan, segments_near
 
-__all__ = ["Imu", "Lidar", "encoder_counts"]
+__all__ = ["Imu", "Lidar", "encoder_counts", "stamp_of"]
 
 FloatArray = NDArray[np.float64]
 GRAVITY = 9.80665
@@ -31,6 +31,12 @@ _ZERO_VECTOR = msgs.Vector3(0.0, 0.0, 0.0)
 _laser_scan = msgs.LaserScan.trusted_builder()
 _NO_PEOPLE = np.zeros((1, 0, 3))
 _NO_DRAWS = np.zeros(0)
+
+
+def stamp_of(seconds: float) -> msgs.Time:
+    """``msgs.Time.from_sec(seconds)`` for the simulator's own (finite) clock, unchecked."""
+    nanoseconds = round(seconds * 1e9)
+    return _time(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
 
 
 @njit(cache=True)
@@ -90,6 +96,9 @@ class Imu:
         self.yaw_bias = 0.0
         self.gyro_bias = float(rng.normal(0.0, float(params.get("gyro_bias_std", 0.0))))
         self.period = 1.0 / self.rate
+        # each bias's random-walk step per reading, as YAW_DRIFT * sqrt(period) * draw
+        self._yaw_drift_step = self.YAW_DRIFT * math.sqrt(self.period)
+        self._gyro_drift_step = self.GYRO_DRIFT * math.sqrt(self.period)
         self.next_time = 0.0
         self._normals: list[float] = []
         self._next_normal = 0
@@ -126,13 +135,15 @@ class Imu:
         return self._normals[i:i + 7]
 
     def measure(self, time: float, yaw: float, yaw_rate: float, yaw_accel: float,
-                accel_body: tuple[float, float]) -> msgs.Imu:
-        """One reading at ``time`` of the body's true yaw, rates and base_link acceleration."""
-        dt = self.period
-        self.next_time += dt
+                accel_body: tuple[float, float], header: msgs.Header | None = None
+                ) -> msgs.Imu:
+        """One reading at ``time`` of the body's true yaw, rates and base_link acceleration
+        (``header``: the message's, when the caller has it: stamped ``time``, in
+        ``frame_id``)."""
+        self.next_time += self.period
         n_yaw_bias, n_gyro_bias, n_yaw, n_rate, n_ax, n_ay, n_az = self._draws()
-        self.yaw_bias += self.YAW_DRIFT * math.sqrt(dt) * n_yaw_bias
-        self.gyro_bias += self.GYRO_DRIFT * math.sqrt(dt) * n_gyro_bias
+        self.yaw_bias += self._yaw_drift_step * n_yaw_bias
+        self.gyro_bias += self._gyro_drift_step * n_gyro_bias
         measured_yaw = yaw + self.yaw_bias + self.yaw_std * n_yaw
         rate = yaw_rate + self.gyro_bias + self.gyro_std * n_rate if self.gyro_std else 0.0
         # acceleration at the mounting point: a + alpha x r + omega x (omega x r)
@@ -147,10 +158,9 @@ class Imu:
         else:
             accel = _ZERO_VECTOR   # messages are immutable: one zero vector serves them all
         half = 0.5 * measured_yaw
-        nanoseconds = round(time * 1e9)
-        stamp = _time(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
-        return _imu(_header(stamp, self.frame_id),
-                    _quaternion(0.0, 0.0, math.sin(half), math.cos(half)),
+        if header is None:
+            header = _header(stamp_of(time), self.frame_id)
+        return _imu(header, _quaternion(0.0, 0.0, math.sin(half), math.cos(half)),
                     self.cov_orientation, _vector3(0.0, 0.0, float(rate)), self.cov_gyro,
                     accel, self.cov_accel)
 
@@ -253,10 +263,8 @@ class Lidar:
                                          self.range_max)
         ranges32.flags.writeable = intensities.flags.writeable = False  # handed over
         # every field is already normal (float32-rounded numbers, read-only float32 arrays)
-        nanoseconds = round(self.scan_start * 1e9)      # msgs.Time.from_sec's rounding
-        stamp = _time(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
-        scan = _laser_scan(_header(stamp, self.frame_id), *self._fields32, ranges32,
-                           intensities)
+        scan = _laser_scan(_header(stamp_of(self.scan_start), self.frame_id),
+                           *self._fields32, ranges32, intensities)
         self.scan_start += 1.0 / self.rate
         return scan
 

@@ -39,7 +39,7 @@ from kit.control import DCMotor
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
 from sim import _walk as _walk_rules
-from sim.sensors import Imu, Lidar, encoder_counts
+from sim.sensors import Imu, Lidar, encoder_counts, stamp_of
 from sim.world import World, along_walls, free_distance, load_world
 
 __all__ = ["Collision", "GroundTruth", "Physics", "Simulation"]
@@ -62,7 +62,6 @@ _body_velocity = _chipmunk.cpBodyGetVelocity
 _body_angular_velocity = _chipmunk.cpBodyGetAngularVelocity
 _set_body_velocity = _chipmunk.cpBodySetVelocity
 _space_step = _chipmunk.cpSpaceStep
-_time = msgs.Time.trusted_builder()
 _header = msgs.Header.trusted_builder()
 _joint_state = msgs.JointState.trusted_builder()
 
@@ -402,9 +401,11 @@ class Simulation:
                         if self.people else np.zeros((0, 2)),
                         np.cumsum([0, *lengths])[:-1].astype(np.int64),
                         np.array(lengths, dtype=np.int64))
+        corners = [len(r.description.footprint) for r in self.robots]
         self._footprints = (
-            np.array([len(r.description.footprint) for r in self.robots], dtype=np.int64),
-            np.array([float(np.ptp(r.description.footprint[:, 1])) for r in self.robots]))
+            np.array(corners, dtype=np.int64),
+            np.array([float(np.ptp(r.description.footprint[:, 1])) for r in self.robots]),
+            max(corners, default=0))
         for r in self.robots:
             self._read_state(r)
 
@@ -501,11 +502,11 @@ class Simulation:
         """(P, 3) the people as discs (x, y, radius) [m], where they are now."""
         if not self.people:
             return _NO_DISCS
-        discs = []
+        discs: list[float] = []
         for body in self._people_bodies:
             position = _body_position(body)
-            discs.append((position.x, position.y, PERSON_RADIUS))
-        return np.array(discs)
+            discs += (position.x, position.y, PERSON_RADIUS)
+        return np.array(discs).reshape(-1, 3)
 
     def _walk(self) -> None:
         """Every person decides where to walk for the next tenth of a second: the rules of
@@ -523,12 +524,16 @@ class Simulation:
         routes, start, length = self._routes
         new_speed = _walk_rules.arrive(positions, routes, start, length, crowd.alcove,
                                        crowd.target, crowd.direction)
-        for i in np.flatnonzero(new_speed).tolist():   # drawn in order, as the rules do
+        for i in new_speed.tolist():                # drawn in order, as the rules do
             crowd.speed[i] = float(self.rng.uniform(0.8, 1.4))
-        corners, widths = self._footprints
-        outlines = np.zeros((len(robots), int(corners.max(initial=0)), 2))
+        corners, widths, most = self._footprints
+        outlines = np.zeros((len(robots), most, 2))
         for k, r in enumerate(robots):
-            outlines[k, :corners[k]] = geometry.transform_points(r.pose, r.description.footprint)
+            # kit.geometry.transform_points's arithmetic (a checked pose, numpy's product)
+            pose = r.pose
+            c, s = math.cos(pose[2]), math.sin(pose[2])
+            rotation = np.array([[c, -s], [s, c]])
+            outlines[k, :corners[k]] = r.description.footprint @ rotation.T + pose[:2]
         where = np.array([(float(r.pose[0]), float(r.pose[1])) for r in robots]).reshape(-1, 2)
         moving = np.array([r.world_velocity for r in robots]).reshape(-1, 2)
         walking = _walk_rules.walk(positions, body_velocities, crowd.speed, routes, start,
@@ -857,6 +862,8 @@ class Simulation:
         out: list[tuple[str, Any]] = []
         discs = self._discs() if self.people else _NO_DISCS
         segments, circles = self.world.lidar_segments, self.world.circles
+        # this step's headers, one per frame: every robot's messages share them (immutable)
+        headers: dict[str, msgs.Header] = {}
         for i, r in enumerate(robots):
             self._read_state(r, dt)
             if r.lidar is not None:
@@ -865,12 +872,20 @@ class Simulation:
                     out.append((r.topics[0], scan))
             imu = r.imu
             if imu is not None and t1 + 1e-12 >= imu.next_time:
+                header = headers.get(imu.frame_id) or self._header(headers, imu.frame_id)
                 out.append((r.topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
-                                                     r.accel)))
+                                                     r.accel, header)))
             if t1 + 1e-12 >= r.next_joint_state:
                 r.next_joint_state += 0.02
-                out.append((r.topics[2], self.joint_state(i)))
+                header = headers.get("") or self._header(headers, "")
+                out.append((r.topics[2], self._joint_state(r, header)))
         return out
+
+    def _header(self, headers: dict[str, msgs.Header], frame_id: str) -> msgs.Header:
+        """The header of this step's messages in ``frame_id``, made once (into ``headers``)."""
+        stamp = next(iter(headers.values())).stamp if headers else stamp_of(self.time)
+        header = headers[frame_id] = _header(stamp, frame_id)
+        return header
 
     def _step_space(self, dt: float, substeps: int) -> None:
         """``pymunk.Space.step`` ``substeps`` times: straight into Chipmunk when there is none
@@ -925,7 +940,10 @@ class Simulation:
 
     def joint_state(self, robot: int = 0) -> msgs.JointState:
         """Wheel positions [rad] from the encoders (quantised) and the servos' speeds."""
-        r = self.robots[robot]
+        return self._joint_state(self.robots[robot], _header(stamp_of(self.time), ""))
+
+    @staticmethod
+    def _joint_state(r: _Robot, header: msgs.Header) -> msgs.JointState:
         per_rad = r.description.ticks_per_wheel_turn / (2 * math.pi)
         right, left = r.angles
         position = np.array((math.floor(right * per_rad) / per_rad,
@@ -933,9 +951,7 @@ class Simulation:
         velocity = np.array(r.speeds)
         position.flags.writeable = velocity.flags.writeable = False  # handed over, not copied
         # fresh read-only float64 arrays and a tuple of names: nothing for __init__ to check
-        nanoseconds = round(self.time * 1e9)   # msgs.Time.from_sec's rounding
-        stamp = _time(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
-        return _joint_state(_header(stamp, ""), _WHEEL_JOINTS, position, velocity, _NO_EFFORT)
+        return _joint_state(header, _WHEEL_JOINTS, position, velocity, _NO_EFFORT)
 
     def ground_truth(self, robot: int = 0) -> GroundTruth:
         r = self.robots[robot]
