@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import shutil
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -137,15 +138,16 @@ class ScanLog(Node):
 
 
 def run(seconds: float = 240.0, seed: int = 7, people: int = 4,
-        bag_path: Path | None = None) -> dict[str, object]:
-    """Drive the route; returns paths, scans and counts (and writes the bag if asked)."""
+        bag_path: Path | None = None, nodes: Sequence[Node] = ()) -> dict[str, object]:
+    """Drive the route; returns paths, scans and counts (and writes the bag if asked).
+    ``nodes`` run beside the drive's own (a :class:`sim.runner.ProgressNode`)."""
     sim = Simulation(world="office", robot="uiabot", seed=seed, people=people)
     bag = BagWriter(bag_path) if bag_path is not None else None
     recorder = BagRecorder(TOPICS, bag)
     follower = RouteFollower()
     scans = ScanLog()
     # the recorder comes after the odometry node, so it sees each step's /odom and /tf
-    runner = Runner(sim, [WheelOdometryNode(), recorder, scans], controller=follower,
+    runner = Runner(sim, [WheelOdometryNode(), recorder, scans, *nodes], controller=follower,
                     signals={"truth": truth_pose(), "odometry": pose_of("/odom")})
     if bag is not None:
         bag.__enter__()

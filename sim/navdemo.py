@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -32,7 +33,7 @@ from kit import msgs
 from kit.bag import BagWriter
 from kit.slam.offline import read_bag_recording, run_bag
 from sim import demo, scenarios
-from sim.runner import Node, Published, Runner, WheelOdometryNode
+from sim.runner import Node, ProgressNode, Published, Runner, WheelOdometryNode
 from sim.simulation import Simulation
 
 __all__ = ["main", "navigate_on_map"]
@@ -66,9 +67,10 @@ class Snapshots(Node):
         return ()
 
 
-def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None
-                    ) -> dict[str, Any]:
-    """The office tour on ``grid`` with AMCL among people; rows, frames and counts."""
+def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None,
+                    bar: Any = None) -> dict[str, Any]:
+    """The office tour on ``grid`` with AMCL among people; rows, frames and counts. ``bar``:
+    a progress bar (tqdm) moved on in simulated seconds, its total the run's time limit."""
     route = scenarios.Route("office", (1.0, 6.0, 0.0), GOALS, 5,
                             "the mapped offices and home, among five people")
     world = scenarios.load_world("office")
@@ -85,13 +87,19 @@ def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None
     bag = BagWriter(bag_path) if bag_path is not None else None
     recorder = demo.BagRecorder(TOPICS, bag)
     shots = Snapshots(loc)
-    runner = Runner(sim, [WheelOdometryNode(), node, recorder, shots], record_rate=1.0)
+    seconds = sum(limits) + 1.0
+    progress = []
+    if bar is not None:
+        bar.reset(total=seconds)
+        progress = [ProgressNode(bar)]
+    runner = Runner(sim, [WheelOdometryNode(), node, recorder, shots, *progress],
+                    record_rate=1.0)
     if bag is not None:
         bag.__enter__()
     try:
         recorder.on_message("/tf_static", sim.static_transforms(), 0.0)
         recorder.on_message("/map", grid, 0.0)
-        runner.run(sum(limits) + 1.0, until=lambda r: node.done)
+        runner.run(seconds, until=lambda r: node.done)
     finally:
         if bag is not None:
             bag.__exit__(None, None, None)
@@ -125,7 +133,8 @@ def _figure(grid: msgs.OccupancyGrid, result: dict[str, Any], png: Path) -> None
     plt.close(fig)
 
 
-def _animation(grid: msgs.OccupancyGrid, result: dict[str, Any], html: Path) -> None:
+def _animation(grid: msgs.OccupancyGrid, result: dict[str, Any], html: Path,
+               quiet: bool = False) -> None:
     import matplotlib.pyplot as plt
     from matplotlib import animation
 
@@ -147,13 +156,27 @@ def _animation(grid: msgs.OccupancyGrid, result: dict[str, Any], html: Path) -> 
         ax.set_title(f"t = {f['time']:.0f} s")
         return [robot, people, cloud]
 
-    anim = animation.FuncAnimation(fig, draw, frames=range(0, len(frames), 2), interval=100,
-                                   blit=True)
-    html.write_text(anim.to_jshtml(fps=10, default_mode="once"), encoding="utf-8")
+    shown = range(0, len(frames), 2)
+    anim = animation.FuncAnimation(fig, draw, frames=shown, interval=100, blit=True)
+    # what Animation.to_jshtml(fps=10, default_mode="once") writes, saved with a progress bar
+    writer = animation.HTMLWriter(fps=10, embed_frames=True, default_mode="once")
+    with _bar("3. animation", len(shown), "frame", quiet) as bar:
+        anim.save(str(html), writer=writer, progress_callback=lambda i, n: bar.update(1))
     plt.close(fig)
 
 
-def main(out_dir: Path, seed: int = 7) -> int:
+def _bar(desc: str, total: float, unit: str, quiet: bool) -> Any:
+    """A progress bar on standard error, as the kit's commands draw them: on a terminal,
+    unless ``quiet`` (``KIT_FAST`` plays no part: it shortens notebooks, not this)."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, leave=False, file=sys.stderr, delay=0.5,
+                disable=quiet or not sys.stderr.isatty(),
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} {unit} "
+                           "[{elapsed}<{remaining}]")
+
+
+def main(out_dir: Path, seed: int = 7, quiet: bool = False) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -163,8 +186,13 @@ def main(out_dir: Path, seed: int = 7) -> int:
     mapping_bag = out_dir / "demo_office"
     if mapping_bag.exists():
         shutil.rmtree(mapping_bag)
-    drive = demo.run(seed=seed, people=0, bag_path=mapping_bag)
-    slam = run_bag(read_bag_recording(mapping_bag))
+    drive_seconds = 240.0                   # demo.run's limit; the route ends sooner
+    with _bar("1. mapping drive", drive_seconds, "s simulated", quiet) as bar:
+        drive = demo.run(drive_seconds, seed=seed, people=0, bag_path=mapping_bag,
+                         nodes=[ProgressNode(bar)])
+    recording = read_bag_recording(mapping_bag)
+    with _bar("1. SLAM", len(recording.scans), "scans", quiet) as bar:
+        slam = run_bag(recording, progress=bar.update)
     occupancy = slam.occupancy_map(0.05)
     occupancy.save(out_dir / "demo_map.yaml")
     grid = occupancy.to_msg()
@@ -174,7 +202,8 @@ def main(out_dir: Path, seed: int = 7) -> int:
     nav_bag = out_dir / "demo_loop"
     if nav_bag.exists():
         shutil.rmtree(nav_bag)
-    result = navigate_on_map(grid, seed, nav_bag)
+    with _bar("2. navigating", 0, "s simulated", quiet) as bar:
+        result = navigate_on_map(grid, seed, nav_bag, bar)
     rows = result["rows"]
     figures = scenarios.summary(rows, 0.5)
     print(f"2. navigated on the SLAM map with AMCL among 5 people: "
@@ -187,7 +216,7 @@ def main(out_dir: Path, seed: int = 7) -> int:
               f"{r.seconds:.1f} s, {r.path_length:.1f} m driven (shortest "
               f"{r.shortest_length:.1f} m){'; ' + r.reason if r.reason else ''}")
     _figure(grid, result, out_dir / "demo_loop.png")
-    _animation(grid, result, out_dir / "demo_loop.html")
+    _animation(grid, result, out_dir / "demo_loop.html", quiet)
     counts = result["counts"]
     print("bag topics: " + ", ".join(f"{t} ({n})" for t, n in sorted(counts.items())))
     print(f"wrote {out_dir / 'demo_loop.png'}, {out_dir / 'demo_loop.html'}, {nav_bag}/ "
