@@ -1,4 +1,4 @@
-"""``python -m sim demo [--out DIR] [--seed N]``, ``python -m sim bench [--quick]`` and
+"""``python -m sim demo [--out DIR] [--seed N] [--quiet]``, ``python -m sim bench [--quick]`` and
 ``python -m sim navigate --world office|aisle --robot uiabot|igv --episodes N --seed S
 [--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass]
 [--keepout|--no-keepout] --out FILE.csv``."""
@@ -18,6 +18,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                           "then navigates it with AMCL among people; PNG, HTML, MCAP bag")
     demo.add_argument("--out", default="out", help="folder for the PNG (out)")
     demo.add_argument("--seed", type=int, default=7)
+    demo.add_argument("--quiet", action="store_true", help="no progress bars")
     bench = sub.add_parser("bench", help="real-time factors and raycaster throughput")
     bench.add_argument("--quick", action="store_true", help="one short run per figure")
     nav = sub.add_parser("navigate", help="seeded navigation episodes; one CSV row per goal")
@@ -44,7 +45,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return bench_module.main(args.quick)
     from sim import navdemo
 
-    return navdemo.main(Path(args.out), args.seed)
+    return navdemo.main(Path(args.out), args.seed, args.quiet)
 
 
 def _navigate(args: argparse.Namespace) -> int:
