@@ -178,7 +178,7 @@ def test_a_silent_drive_times_out_naming_device_and_command():
         start = time.monotonic()
         with pytest.raises(DeviceTimeout, match=r"DPRALTE: read position: no reply from 0x3E"):
             drive.read_position()
-        assert time.monotonic() - start < 0.5
+        assert time.monotonic() - start >= 0.2   # its whole time-out, never less
 
 
 def test_a_closed_port_is_a_clear_error():

@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -105,10 +104,9 @@ def test_a_silent_drive_times_out_in_logical_time():
     clock = Clock()
     port = LogicalPort(DpralteBusEmulator(faults=Faults(silence=1.0, silence_s=1e9)), clock)
     drive = dpralte.DpralteDrive(port, 0x3E, timeout=0.2, clock=clock)
-    t0 = time.perf_counter()
     with pytest.raises(DeviceTimeout, match=r"DPRALTE: read position: no reply from 0x3E"):
         drive.read_position()
-    assert clock.now == pytest.approx(0.2, abs=0.02) and time.perf_counter() - t0 < 0.5
+    assert clock.now == pytest.approx(0.2, abs=0.02)   # the deadline was the logical clock's
 
 
 # ------------------------------------------------------------------ OS5000 (§2.6)
@@ -297,10 +295,9 @@ def test_uiabot_bring_up_on_the_logical_clock():
     clock = Clock()
     device = ODriveEmulator(calibration_time=12.0)
     base = UiabotBase(LogicalPort(device, clock), clock=clock, sleep=clock.sleep)
-    t0 = time.perf_counter()
     base.bring_up()
     assert [s for s, _ in base.steps_done] == ["connect", "calibrate", "closed loop"]
-    assert 12.0 <= clock.now < 12.5 and time.perf_counter() - t0 < 2.0
+    assert 12.0 <= clock.now < 12.5    # the paper's waits passed on the logical clock
     assert [a.current_state for a in device.axes] == [8, 8]
     base.drive((0.5, 0.0))
     right, left = device.axes[0].input_vel, device.axes[1].input_vel
@@ -523,11 +520,12 @@ def test_a_pseudo_terminal_whose_emulator_stops_is_an_error_not_a_hang():
     lidar.start()
     lidar.read_scan()
     server.stop()
-    t0 = time.monotonic()
+    attempts = 0
     with pytest.raises((ProtocolError, DeviceTimeout)):
         for _ in range(10):
+            attempts += 1
             lidar.read_scan()
-    assert time.monotonic() - t0 < 2.0
+    assert attempts <= 2   # the read after the stop fails (one may finish a turn under way)
 
 
 # ------------------------------------------------------------------ real pseudo-terminals

@@ -93,12 +93,12 @@ def test_random_bytes_after_a_scan_descriptor_give_no_scan_but_a_clear_error():
     noise = rplidar.SCAN_DESCRIPTOR + bytes(rng.randrange(256) for _ in range(30_000))
     with PtyServer(CaptureReplay(noise)) as server:
         lidar = rplidar.RPLidar(server.path, timeout=1.0)
+        t0 = time.monotonic()           # before the scan starts: the deadline counts from it
         lidar.start()
-        t0 = time.monotonic()
         with pytest.raises(DeviceTimeout, match=r"RPLidar: read scan: no complete turn within "
                                                  r"1 s \(since the scan started: \d+ nodes"):
             lidar.read_scan()
-        assert 1.0 <= time.monotonic() - t0 < 1.5
+        assert time.monotonic() - t0 >= 1.0   # never sooner (later on a busy machine)
     assert lidar.turns.turns == 0 and lidar.turns.nodes > 500  # nodes, yes; a scan, never
 
 
@@ -157,13 +157,14 @@ def test_the_four_real_captures_replayed_through_the_driver_give_their_turns(sha
         except DeviceTimeout as exc:
             results[name] = (lidar, turns, scans, str(exc))
 
+    before = time.time()
     with PtyServer(devices) as server:
         threads = [threading.Thread(target=run, args=(name, path))
                    for name, path in zip(expected, server.paths, strict=True)]
         for t in threads:
             t.start()
         for t in threads:
-            t.join(30.0)
+            t.join(120.0)   # a hang guard: the replays take about 6 s
     for name, (nodes, starts, kept) in expected.items():
         lidar, turns, scans, message = results[name]
         assert (lidar.turns.nodes, lidar.turns.starts, len(turns)) == (nodes, starts, kept)
@@ -174,10 +175,11 @@ def test_the_four_real_captures_replayed_through_the_driver_give_their_turns(sha
         assert all(np.isfinite(s.ranges).sum() > 100 for s in scans)
     sizes = [len(t.nodes) for t in results["sample_data_pyserial_1.txt"][1]]
     assert min(sizes) == 314 and max(sizes) == 322  # the README's 314–322 per turn
-    # wall-clock stamps, one turn (316 nodes × 5 bytes at 115200 baud: 0.14 s) apart
-    turns = results["sample_data_pyserial_1.txt"][1]
-    periods = np.diff([t.started for t in turns])
-    assert abs(turns[0].started - time.time()) < 60 and 0.1 < np.median(periods) < 0.2
+    # wall-clock stamps (seconds since the epoch, taken as the turns came in), in order; how
+    # far apart depends on how fast this machine reads them (bench_drivers.py measures rates)
+    stamps = [t.started for t in results["sample_data_pyserial_1.txt"][1]]
+    assert before <= stamps[0] and stamps[-1] <= time.time()
+    assert all(np.diff(stamps) > 0)
 
 
 def msgs_time():
