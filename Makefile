@@ -3,6 +3,7 @@
 #   make reset LAB=01   a fresh copy of one lab in work/, your old file kept beside it
 #   make demo   the whole see-think-act loop: SLAM map of the office, then navigation on it among people
 #   make test   ruff, mypy, pytest (with the labs executed) and nbval on solutions/
+#   make test-loaded   the same with every core kept busy (benchmarks/stress.py)
 # Instructors: make solutions re-executes solutions/ (KIT_FAST=1) and regenerates labs/.
 
 PYTHON ?= python3
@@ -23,7 +24,7 @@ JUPYTER_ARGS ?=
 ROOT_FLAG := $(if $(filter 0,$(shell id -u)),--allow-root,)
 export KIT_FAST ?= 1
 
-.PHONY: lab reset demo test lint typecheck pytest nbval solutions release bench clean
+.PHONY: lab reset demo test test-loaded lint typecheck pytest nbval solutions release bench clean
 
 $(BIN)/python:
 	@echo "make: creating the virtual environment .venv with $$($(PYTHON) --version)"
@@ -80,6 +81,13 @@ nbval: $(STAMP)
 		--dist loadscope -o addopts="" $(PYTEST_ARGS)
 
 test: lint typecheck pytest nbval
+
+# make test while benchmarks/stress.py keeps every core busy: no test may depend on the
+# machine's speed (STRESS_WORKERS=N for another number of spinning processes)
+STRESS_WORKERS ?=
+test-loaded: $(STAMP)
+	$(BIN)/python benchmarks/stress.py run $(if $(STRESS_WORKERS),--workers $(STRESS_WORKERS)) \
+		-- $(MAKE) test
 
 solutions: $(FOR_LAB)
 	$(BIN)/jupyter nbconvert --to notebook --execute --inplace \
