@@ -21,7 +21,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TextIO
 
-__all__ = ["Count", "follow", "main"]
+__all__ = ["Count", "follow", "main", "summary"]
 
 _LOOKED_AT = ("Collecting ", "Requirement already satisfied: ", "Processing ", "Obtaining ")
 
@@ -95,13 +95,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"  pip failed (exit status {proc.returncode}) after {took}: its output is above",
               file=sys.stderr)
         return proc.returncode
+    print(summary(count, took))
+    return 0
+
+
+def summary(count: Count, took: str) -> str:
+    """The step's last line.
+
+    >>> summary(Count(looked_at=3, installing=["a"], installed=1), "4 s")
+    '  1 packages installed in 4 s (2 already there)'
+    >>> summary(Count(looked_at=3), "2 s")
+    '  nothing to install (3 packages already there, 2 s)'
+    """
     already = count.looked_at - len(count.installing)
     if count.installed:
-        print(f"  {count.installed} packages installed in {took}"
-              + (f" ({already} already there)" if already > 0 else ""))
-    else:
-        print(f"  nothing to install ({count.looked_at} packages already there, {took})")
-    return 0
+        return f"  {count.installed} packages installed in {took}" + \
+            (f" ({already} already there)" if already > 0 else "")
+    return f"  nothing to install ({count.looked_at} packages already there, {took})"
 
 
 if __name__ == "__main__":
