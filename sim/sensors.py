@@ -8,7 +8,7 @@ to walls and people (not glass) with noise and dropouts. Ground truth is never i
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -208,7 +208,7 @@ class Lidar:
         self.rng = rng
         self.scan_start = 0.0
         self._times: list[float] = []
-        self._poses: list[FloatArray] = []
+        self._poses: list[Sequence[float]] = []
         self._people: list[FloatArray] = []
         self.last_ranges: FloatArray = np.full(self.beams, np.inf)
         """float64 ranges of the last scan, before noise (for tests against geometry)."""
@@ -225,7 +225,7 @@ class Lidar:
         return np.asarray(self.scan_start + self.time_increment * np.arange(self.beams),
                           dtype=np.float64)
 
-    def collect(self, t0: float, t1: float, pose0: FloatArray, pose1: FloatArray,
+    def collect(self, t0: float, t1: float, pose0: Sequence[float], pose1: Sequence[float],
                 people: FloatArray, segments: FloatArray, circles: FloatArray,
                 ) -> msgs.LaserScan | None:
         """Record one physics step (sensor-carrier poses at ``t0`` and ``t1``, the people's

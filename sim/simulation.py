@@ -180,8 +180,6 @@ class _Robot:
     topic_prefix: str
     tick_offset: NDArray[np.int64]
     wheel_target: FloatArray = field(default_factory=lambda: np.zeros(2))
-    pose: FloatArray = field(default_factory=lambda: np.zeros(3))
-    velocity: FloatArray = field(default_factory=lambda: np.zeros(2))
     world_velocity: tuple[float, float] = (0.0, 0.0)
     accel: tuple[float, float] = (0.0, 0.0)
     yaw_accel: float = 0.0
@@ -210,9 +208,21 @@ class _Robot:
         self.angles: list[float] = [0.0, 0.0]
         """(right, left) total wheel rotations [rad], what the encoders count."""
         self.targets: tuple[float, float] = (0.0, 0.0)
-        self.yaw = self.yaw_rate = 0.0
+        self.x = self.y = self.yaw = self.yaw_rate = self.forward_speed = 0.0
+        self.xy_yaw: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        """(x, y, yaw) [m, m, rad] as plain floats (a new tuple each step, never changed)."""
         self.cp_body: Any = self.body._body
         self.cp_grounds: tuple[Any, ...] = tuple(g._body for g in self.grounds)
+
+    @property
+    def pose(self) -> FloatArray:
+        """(x, y, yaw) of base_link in the world [m, m, rad] (a new array)."""
+        return np.array(self.xy_yaw)
+
+    @property
+    def velocity(self) -> FloatArray:
+        """(v, ω) in base_link [m/s, rad/s] (a new array)."""
+        return np.array((self.forward_speed, self.yaw_rate))
 
     @property
     def wheel_speed(self) -> FloatArray:
@@ -534,7 +544,7 @@ class Simulation:
             c, s = math.cos(pose[2]), math.sin(pose[2])
             rotation = np.array([[c, -s], [s, c]])
             outlines[k, :corners[k]] = r.description.footprint @ rotation.T + pose[:2]
-        where = np.array([(float(r.pose[0]), float(r.pose[1])) for r in robots]).reshape(-1, 2)
+        where = np.array([(r.x, r.y) for r in robots]).reshape(-1, 2)
         moving = np.array([r.world_velocity for r in robots]).reshape(-1, 2)
         walking = _walk_rules.walk(positions, body_velocities, crowd.speed, routes, start,
                                    length, crowd.target, crowd.direction, crowd.blocked,
@@ -546,7 +556,7 @@ class Simulation:
     def _walk_reference(self) -> None:
         """The people's rules in plain Python: the reference the compiled rules are tested
         against (``compiled_walk = False`` runs a simulation on it)."""
-        robots = [(float(r.pose[0]), float(r.pose[1])) for r in self.robots]
+        robots = [(r.x, r.y) for r in self.robots]
         outlines = [geometry.transform_points(r.pose, r.description.footprint)
                     for r in self.robots]
         velocities = [r.world_velocity for r in self.robots]
@@ -603,7 +613,7 @@ class Simulation:
         across the passage (the narrower of where the person and the robot are), less the
         robot's width, under a body and 0.3 m."""
         for r in self.robots:
-            rx, ry = float(r.pose[0]), float(r.pose[1])
+            rx, ry = r.x, r.y
             d = math.hypot(rx - px, ry - py)
             if d >= 3.5 or (rx - px) * ux + (ry - py) * uy <= 0.5 * d:
                 continue
@@ -830,10 +840,9 @@ class Simulation:
             r.accel = (c * ax_w + s * ay_w, -s * ax_w + c * ay_w)
             r.yaw_accel = (w - r.yaw_rate) / dt
         r.world_velocity = (vx, vy)
-        r.yaw, r.yaw_rate = yaw, w
         position = _body_position(cp_body)
-        r.pose = np.array((position.x, position.y, yaw))
-        r.velocity = np.array((v_forward, w))
+        r.x, r.y, r.yaw, r.yaw_rate, r.forward_speed = position.x, position.y, yaw, w, v_forward
+        r.xy_yaw = (position.x, position.y, yaw)
 
     def step(self, cmd: Command | Mapping[int, Command] = None) -> list[tuple[str, Any]]:
         """Advance by one physics step (``physics.dt``).
@@ -854,7 +863,7 @@ class Simulation:
         if self.people and round(t1 / dt) % 10 == 0:
             self._walk()  # people decide where to go ten times a second
         robots = self.robots
-        before = [r.pose for r in robots]  # _read_state replaces, never mutates, pose
+        before = [r.xy_yaw for r in robots]  # _read_state replaces it with a new tuple
         for r in robots:
             self._drive(r, dt)
         self._step_space(dt / ph.substeps, ph.substeps)
@@ -867,7 +876,7 @@ class Simulation:
         for i, r in enumerate(robots):
             self._read_state(r, dt)
             if r.lidar is not None:
-                scan = r.lidar.collect(t0, t1, before[i], r.pose, discs, segments, circles)
+                scan = r.lidar.collect(t0, t1, before[i], r.xy_yaw, discs, segments, circles)
                 if scan is not None:
                     out.append((r.topics[0], scan))
             imu = r.imu
@@ -955,13 +964,13 @@ class Simulation:
 
     def ground_truth(self, robot: int = 0) -> GroundTruth:
         r = self.robots[robot]
-        v_forward, w = float(r.velocity[0]), float(r.velocity[1])
+        v_forward, w = r.forward_speed, r.yaw_rate
         rim = r.wheel_speed * r.description.wheel_radius * \
             (1.0 + np.asarray(self.physics.wheel_radius_errors))
         half = 0.5 * r.description.wheel_separation
         ground_speed = np.array([v_forward + w * half, v_forward - w * half])
-        return GroundTruth(self.time, r.pose.copy(), r.velocity.copy(), rim - ground_speed,
-                           self.world.in_oil(float(r.pose[0]), float(r.pose[1])))
+        return GroundTruth(self.time, r.pose, r.velocity, rim - ground_speed,
+                           self.world.in_oil(r.x, r.y))
 
     def people_positions(self) -> FloatArray:
         """(P, 2) positions of the pedestrians [m] (ground truth)."""
