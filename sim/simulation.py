@@ -525,12 +525,14 @@ class Simulation:
             self._walk_reference()
             return
         crowd, people, robots = self._crowd, self.people, self.robots
-        state = []
+        where_they_are: list[float] = []
+        how_they_move: list[float] = []
         for p in people:
             position, velocity = _body_position(p.cp_body), _body_velocity(p.cp_body)
-            state.append((position.x, position.y, velocity.x, velocity.y))
-        bodies = np.array(state)
-        positions, body_velocities = bodies[:, :2].copy(), bodies[:, 2:].copy()
+            where_they_are += (position.x, position.y)
+            how_they_move += (velocity.x, velocity.y)
+        positions = np.array(where_they_are).reshape(-1, 2)
+        body_velocities = np.array(how_they_move).reshape(-1, 2)
         routes, start, length = self._routes
         new_speed = _walk_rules.arrive(positions, routes, start, length, crowd.alcove,
                                        crowd.target, crowd.direction)
@@ -539,11 +541,11 @@ class Simulation:
         corners, widths, most = self._footprints
         outlines = np.zeros((len(robots), most, 2))
         for k, r in enumerate(robots):
-            # kit.geometry.transform_points's arithmetic (a checked pose, numpy's product)
-            pose = r.pose
-            c, s = math.cos(pose[2]), math.sin(pose[2])
-            rotation = np.array([[c, -s], [s, c]])
-            outlines[k, :corners[k]] = r.description.footprint @ rotation.T + pose[:2]
+            # kit.geometry.transform_points's arithmetic: numpy's product (which may fuse a
+            # multiply and an add), then the position added
+            c, s = math.cos(r.yaw), math.sin(r.yaw)
+            rotated = r.description.footprint @ np.array(((c, -s), (s, c))).T
+            np.add(rotated, (r.x, r.y), out=outlines[k, :corners[k]])
         where = np.array([(r.x, r.y) for r in robots]).reshape(-1, 2)
         moving = np.array([r.world_velocity for r in robots]).reshape(-1, 2)
         walking = _walk_rules.walk(positions, body_velocities, crowd.speed, routes, start,
