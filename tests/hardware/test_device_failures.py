@@ -29,30 +29,51 @@ BAUD = {"odrive": 115200, "bno055": 115200, "rplidar": 115200, "dpralte": 115200
         "os5000": 19200, "lms2xx": 9600}
 
 
-def start(name: str, port: Any, **clock: Any) -> tuple[Callable[[], Any], float]:
-    """A started driver's reading and its deadline [s] (a reply, or a whole turn/scan);
-    ``clock``: the driver's ``clock`` and ``sleep`` (a logical clock's), if any."""
+# each driver's time-out and the deadline of its reading (a reply, or a whole turn/scan)
+TIMEOUT = {"odrive": 0.3, "bno055": 0.05, "rplidar": 0.5, "dpralte": 0.25, "os5000": 0.3,
+           "lms2xx": 0.5}
+DEADLINE = {"odrive": 0.3, "bno055": 0.2, "rplidar": 0.5, "dpralte": 0.25, "os5000": 0.3,
+            "lms2xx": 0.5}
+BUSY = 20.0
+"""[s] how long the drivers wait while the devices work, on real pseudo-terminals: a busy
+machine may leave an emulator's thread unscheduled for longer than a device's deadline."""
+
+
+def start(name: str, port: Any, timeout: float | None = None,
+          **clock: Any) -> tuple[Any, Callable[[], Any]]:
+    """A started driver and its reading, with the driver's own time-out unless ``timeout``
+    is given; ``clock``: the driver's ``clock`` and ``sleep`` (a logical clock's), if any."""
+    t = TIMEOUT[name] if timeout is None else timeout
     if name == "odrive":
-        drive = odrive.ODrive(port, timeout=0.3, **clock)
-        return drive.vbus_voltage, 0.3
+        drive = odrive.ODrive(port, timeout=t, **clock)
+        return drive, drive.vbus_voltage
     if name == "bno055":
-        imu = bno055.BNO055(port, timeout=0.05, retries=3, **clock)
+        imu = bno055.BNO055(port, timeout=t, retries=3, **clock)
         imu.begin()
-        return imu.read_imu, 0.2
+        return imu, imu.read_imu
     if name == "rplidar":
-        lidar = rplidar.RPLidar(port, timeout=0.5, **clock)
+        lidar = rplidar.RPLidar(port, timeout=t, **clock)
         lidar.start()
-        return lidar.read_scan, 0.5
+        return lidar, lidar.read_scan
     if name == "dpralte":
-        drive = dpralte.DpralteDrive(port, 0x3F, timeout=0.25, **clock)
-        return drive.read_position, 0.25
+        drive = dpralte.DpralteDrive(port, 0x3F, timeout=t, **clock)
+        return drive, drive.read_position
     if name == "os5000":
-        compass = os5000.Os5000(port, timeout=0.3, **clock)
-        return compass.read, 0.3
-    scanner = lms2xx.LMS2xx(port, timeout=0.5, tries=1, **clock)
+        compass = os5000.Os5000(port, timeout=t, **clock)
+        return compass, compass.read
+    scanner = lms2xx.LMS2xx(port, timeout=t, tries=1, **clock)
     scanner.connect(38400, 180, 1.0)
     scanner.start()
-    return scanner.read_scan, 0.5
+    return scanner, scanner.read_scan
+
+
+def working(name: str, port: Any) -> tuple[Any, Callable[[], Any]]:
+    """A driver started on a real port with time to spare, its first reading taken, then
+    given back its own time-out for what follows."""
+    driver, read = start(name, port, timeout=BUSY)
+    read()  # it works
+    driver.timeout = TIMEOUT[name]
+    return driver, read
 
 
 def open_port(path: str, name: str, opened_by: str) -> Any:
@@ -86,14 +107,12 @@ def test_a_frozen_or_unplugged_device_is_the_drivers_own_error_within_its_deadli
     try:
         readings = {}
         for name, path in zip(devices, server.paths, strict=True):
-            read, deadline = start(name, open_port(path, name, opened_by))
-            read()  # it works
-            readings[name] = (read, deadline)
+            readings[name] = working(name, open_port(path, name, opened_by))
         if fault == "freeze":
             server.freeze()  # hung firmware: the port stays, nothing comes
         else:
             server.stop()  # the adapter is gone
-        for name, (read, _) in readings.items():
+        for name, (_, read) in readings.items():
             error = until_error(read)
             expected = DeviceTimeout if fault == "freeze" else PortError
             assert isinstance(error, expected), (name, repr(error))
@@ -132,13 +151,13 @@ def test_a_frozen_device_is_a_timeout_within_the_drivers_deadline_on_its_clock(n
     failing call gives up once its deadline has passed (retries included), not much later."""
     clock = Clock()
     device = Freezable(emulators()[name])
-    read, deadline = start(name, LogicalPort(device, clock), clock=clock, sleep=clock.sleep)
+    _, read = start(name, LogicalPort(device, clock), clock=clock, sleep=clock.sleep)
     read()                                       # it works
     device.frozen = True
     t0 = clock.now
     error = until_error(read)
     assert isinstance(error, DeviceTimeout) and str(error).startswith(DEVICE_NAMES[name])
-    assert clock.now - t0 <= deadline + 0.05, (name, clock.now - t0)
+    assert clock.now - t0 <= DEADLINE[name] + 0.05, (name, clock.now - t0)
 
 
 def _serve(robot: str) -> tuple[subprocess.Popen, dict[str, str]]:
@@ -160,21 +179,18 @@ def test_emulator_processes_stopped_and_killed_mid_stream():
             proc, paths = _serve(robot)
             procs.append(proc)
             for name, path in paths.items():
-                read, deadline = start(name, open_port(path, name, opened_by))
-                read()
-                readings[name] = (read, deadline)
+                readings[name] = working(name, open_port(path, name, opened_by))
         assert set(readings) == set(BAUD)
         for proc in procs:
             os.kill(proc.pid, signal.SIGSTOP)
-        for name, (read, _) in readings.items():
+        for name, (_, read) in readings.items():
             error = until_error(read)
             assert isinstance(error, DeviceTimeout), (name, error)
         for proc in procs:
             os.kill(proc.pid, signal.SIGCONT)
-        for name, (read, _) in readings.items():
-            # the first readings may still meet stale bytes, or come before the emulator,
-            # woken, is running again (the later on a busy machine): tries, not seconds
-            for _ in range(20):
+        for name, (driver, read) in readings.items():
+            driver.timeout = BUSY   # the woken emulators may take their time on a busy machine
+            for _ in range(3):  # the first reading may still meet the stale ones
                 try:
                     read()
                     break
@@ -185,7 +201,7 @@ def test_emulator_processes_stopped_and_killed_mid_stream():
         for proc in procs:
             proc.kill()
             proc.wait(5)
-        for name, (read, _) in readings.items():
+        for name, (_, read) in readings.items():
             error = until_error(read)
             assert isinstance(error, PortError), (name, error)
             assert "input/output error" in str(error) or "closed" in str(error), error

@@ -97,7 +97,7 @@ def test_stamps_are_wall_clock_on_a_real_port_and_logical_on_an_emulator():
     clock = Clock(start=3.0)
     assert wall_clock_for(clock) is clock
     with PtyServer(BNO055Emulator()) as server:
-        imu = bno055.BNO055(server.path)
+        imu = bno055.BNO055(server.path, timeout=5.0)  # time to spare on a busy machine
         imu.begin()
         before = time.time()
         stamp = imu.read_imu().header.stamp.to_sec()
