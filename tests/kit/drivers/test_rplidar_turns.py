@@ -176,10 +176,11 @@ def test_the_four_real_captures_replayed_through_the_driver_give_their_turns(sha
     sizes = [len(t.nodes) for t in results["sample_data_pyserial_1.txt"][1]]
     assert min(sizes) == 314 and max(sizes) == 322  # the README's 314–322 per turn
     # wall-clock stamps (seconds since the epoch, taken as the turns came in), in order; how
-    # far apart depends on how fast this machine reads them (bench_drivers.py measures rates)
+    # far apart depends on how fast this machine reads them (bench_drivers.py measures rates;
+    # turns read from one buffer after a stall share a stamp)
     stamps = [t.started for t in results["sample_data_pyserial_1.txt"][1]]
     assert before <= stamps[0] and stamps[-1] <= time.time()
-    assert all(np.diff(stamps) > 0)
+    assert all(np.diff(stamps) >= 0)
 
 
 def msgs_time():
