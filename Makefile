@@ -4,12 +4,21 @@
 #   make demo   the whole see-think-act loop: SLAM map of the office, then navigation on it among people
 #               (PARAMS=FILE: a Nav2 parameter file for the navigation; default sim/params/uiabot_nav2_params.yaml)
 #   make test   ruff, mypy, pytest (with the labs executed) and nbval on solutions/
+#   make test-loaded   the same with every core kept busy (benchmarks/stress.py)
 # Instructors: make solutions re-executes solutions/ (KIT_FAST=1) and regenerates labs/.
 
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
+# What each command installs, each step once (a stamp file in .venv marks it done): the kit
+# and the libraries it runs on (make demo), JupyterLab (make lab), the developer tools
+# (make test). Instructors and developers bootstrap everything with `make .venv/.installed`.
+KIT_STAMP := $(VENV)/.kit
+LAB_STAMP := $(VENV)/.lab
 STAMP := $(VENV)/.installed
+# --no-compile: the libraries' modules are compiled on first import, only those used
+INSTALL := $(BIN)/python -m kit._pip_progress
+PIP_ARGS := --no-compile
 PYTEST_ARGS ?=
 # make demo ARGS="--live --speed 4": options of python -m sim demo
 ARGS ?=
@@ -18,23 +27,42 @@ JUPYTER_ARGS ?=
 ROOT_FLAG := $(if $(filter 0,$(shell id -u)),--allow-root,)
 export KIT_FAST ?= 1
 
-.PHONY: lab reset demo test lint typecheck pytest nbval solutions release bench clean
+.PHONY: lab reset demo test test-loaded lint typecheck pytest nbval solutions release bench clean
 
-$(STAMP): pyproject.toml
-	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[dev]"
-	touch $(STAMP)
+$(BIN)/python:
+	@echo "make: creating the virtual environment .venv with $$($(PYTHON) --version)"
+	@$(PYTHON) -m venv $(VENV)
+	@echo "make: updating pip in .venv"
+	@$(BIN)/python -m pip install --quiet --upgrade pip
 
-lab: $(STAMP)
+$(KIT_STAMP): pyproject.toml | $(BIN)/python
+	@$(INSTALL) "make: installing the kit and the libraries it runs on (numpy, scipy, numba, \
+	pymunk, matplotlib, rosbags, ...): 1-3 min the first time" -- $(PIP_ARGS) -e .
+	@touch $@
+
+$(LAB_STAMP): pyproject.toml | $(BIN)/python
+	@$(INSTALL) "make: installing the kit, the libraries it runs on and JupyterLab: 2-4 min \
+	the first time" -- $(PIP_ARGS) -e ".[lab]"
+	@touch $@
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	@$(INSTALL) "make: installing the kit, JupyterLab and the developer tools (pytest, ruff, \
+	mypy, gtsam, dask, ir-sim, ...): 3-5 min the first time" -- $(PIP_ARGS) -e ".[lab,dev]"
+	@touch $@
+
+# a command that needs less is served by the most complete install already there
+FOR_LAB := $(or $(wildcard $(STAMP)),$(LAB_STAMP))
+FOR_KIT := $(or $(wildcard $(STAMP)),$(wildcard $(LAB_STAMP)),$(KIT_STAMP))
+
+lab: $(FOR_LAB)
 	$(BIN)/python -m grader.workdir copy
 	KIT_FAST= $(BIN)/jupyter lab --notebook-dir=work $(ROOT_FLAG) $(JUPYTER_ARGS)
 
-reset: $(STAMP)
+reset: $(FOR_KIT)
 	@test -n "$(LAB)" || { echo "usage: make reset LAB=01"; exit 2; }
 	$(BIN)/python -m grader.workdir reset $(LAB)
 
-demo: $(STAMP)
+demo: $(FOR_KIT)
 	$(BIN)/python -m sim demo --out out $(if $(PARAMS),--params $(PARAMS),) $(ARGS)
 
 lint: $(STAMP)
@@ -57,12 +85,19 @@ nbval: $(STAMP)
 
 test: lint typecheck pytest nbval
 
-solutions: $(STAMP)
+# make test while benchmarks/stress.py keeps every core busy: no test may depend on the
+# machine's speed (STRESS_WORKERS=N for another number of spinning processes)
+STRESS_WORKERS ?=
+test-loaded: $(STAMP)
+	$(BIN)/python benchmarks/stress.py run $(if $(STRESS_WORKERS),--workers $(STRESS_WORKERS)) \
+		-- $(MAKE) test
+
+solutions: $(FOR_LAB)
 	$(BIN)/jupyter nbconvert --to notebook --execute --inplace \
 		--ExecutePreprocessor.record_timing=False solutions/[0-9][0-9]-*.ipynb
 	$(BIN)/grader release
 
-release: $(STAMP)
+release: $(FOR_KIT)
 	$(BIN)/grader release
 
 bench: $(STAMP)

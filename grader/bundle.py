@@ -41,10 +41,13 @@ ROOT_FLAG := $(if $(filter 0,$(shell id -u)),--allow-root,)
 .PHONY: lab reset demo
 
 $(STAMP): pyproject.toml
-\t$(PYTHON) -m venv $(VENV)
-\t$(BIN)/python -m pip install --quiet --upgrade pip
-\t$(BIN)/python -m pip install --quiet -e .
-\ttouch $(STAMP)
+\t@echo "make: creating the virtual environment .venv with $$($(PYTHON) --version)"
+\t@$(PYTHON) -m venv $(VENV)
+\t@echo "make: updating pip in .venv"
+\t@$(BIN)/python -m pip install --quiet --upgrade pip
+\t@$(BIN)/python -m kit._pip_progress "make: installing the kit, the libraries it runs on \\
+\tand JupyterLab: 2-4 min the first time" -- --no-compile -e ".[lab]"
+\t@touch $(STAMP)
 
 lab: $(STAMP)
 \tmkdir -p work

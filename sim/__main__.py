@@ -1,10 +1,10 @@
 """The simulator's command, as ``python -m sim …`` or ``kit sim …``:
 
-``demo [--out DIR] [--seed N] [--params FILE] [--live [HOST:PORT]] [--speed X]``, ``bench
-[--quick]`` and ``navigate --world office|aisle --robot uiabot|igv|eddie|FILE --episodes N
---seed S [--localization truth|amcl|slam] [--controller dwb|rpp] [--route tour|glass]
-[--keepout|--no-keepout] [--params nav2_params.yaml [--namespace NS]] [--bag] [--live
-[HOST:PORT]] [--speed X] [--quiet] --out DIR``. ``--robot`` also takes a robot's own
+``demo [--out DIR] [--seed N] [--params FILE] [--live [HOST:PORT]] [--speed X] [--quiet]``,
+``bench [--quick]`` and ``navigate --world office|aisle --robot uiabot|igv|eddie|FILE
+--episodes N --seed S [--localization truth|amcl|slam] [--controller dwb|rpp] [--route
+tour|glass] [--keepout|--no-keepout] [--params nav2_params.yaml [--namespace NS]] [--bag]
+[--live [HOST:PORT]] [--speed X] [--quiet] --out DIR``. ``--robot`` also takes a robot's own
 description: a ``.urdf``, ``.urdf.xacro`` (with ``--xacro-arg NAME:=VALUE`` and
 ``--package-path PKG=DIR``), a kit ``.toml`` or a bag that recorded ``/robot_description``;
 ``--robot-params FILE`` gives what its URDF does not hold (see :func:`kit.robots.load`).
@@ -50,6 +50,7 @@ def _add_commands(sub: Any) -> None:
                       help="a Nav2 parameter file for the navigation (default: the kit's, "
                       "sim/params/uiabot_nav2_params.yaml)")
     _live_options(demo)
+    demo.add_argument("--quiet", action="store_true", help="no progress bars")
     demo.set_defaults(sim_func=_demo)
     bench = sub.add_parser("bench", help="real-time factors and raycaster throughput")
     bench.add_argument("--quick", action="store_true", help="one short run per figure")
@@ -169,7 +170,8 @@ def _demo(args: argparse.Namespace) -> int:
     config = _params(args.params if args.params is not None else navdemo.PARAMS, "uiabot")
     view, speed = _live(args)
     try:
-        return navdemo.main(out, args.seed, config, live=view, speed=speed)
+        return navdemo.main(out, args.seed, config, live=view, speed=speed,
+                            quiet=args.quiet)
     finally:
         if view is not None:
             view.close()

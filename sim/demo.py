@@ -142,7 +142,7 @@ def run(seconds: float = 240.0, seed: int = 7, people: int = 4,
         clock_period: float | None = 0.01) -> dict[str, object]:
     """Drive the route; returns paths, scans and counts (and writes the bag if asked, with
     ``/clock`` every ``clock_period`` simulated seconds). ``nodes`` run beside the drive's
-    own (a live view); they get ``/tf_static`` first."""
+    own (a live view, a :class:`sim.runner.ProgressNode`); they get ``/tf_static`` first."""
     sim = Simulation(world="office", robot="uiabot", seed=seed, people=people)
     bag = BagWriter(bag_path, clock_period=clock_period) if bag_path is not None else None
     recorder = BagRecorder(TOPICS, bag)

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -42,7 +43,7 @@ from kit.navigation import NavigationConfig
 from kit.slam.offline import read_bag_recording, run_bag
 from sim import demo, navtopics, scenarios
 from sim.live import LiveNode
-from sim.runner import Node, Published, Runner, WheelOdometryNode
+from sim.runner import Node, ProgressNode, Published, Runner, WheelOdometryNode
 from sim.simulation import Simulation
 
 __all__ = ["CLOCK_PERIOD", "GOALS", "PARAMS", "TOPICS", "main", "navigate_on_map"]
@@ -105,11 +106,12 @@ class Snapshots(Node):
 
 def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None,
                     config: NavigationConfig | None = None, live: LiveView | None = None,
-                    speed: float | None = None) -> dict[str, Any]:
+                    speed: float | None = None, bar: Any = None) -> dict[str, Any]:
     """The office tour on ``grid`` with AMCL among people; rows, frames and counts.
     ``config``: the navigator's (and AMCL's) configuration (default: the kit's). With
     ``live``, the topics go to that live view too, the simulation paced at ``speed`` times
-    real time."""
+    real time. ``bar``: a progress bar (tqdm) moved on in simulated seconds, its total the
+    run's time limit."""
     route = scenarios.Route("office", (1.0, 6.0, 0.0), GOALS, 5,
                             "the mapped offices and home, among five people")
     world = scenarios.load_world("office")
@@ -128,7 +130,13 @@ def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None,
     shots = Snapshots(node)
     topics = navtopics.NavigationTopics(node, navtopics.robot_description_xml(d))
     viewer = [] if live is None else [LiveNode(live, TOPICS, speed)]
-    runner = Runner(sim, [WheelOdometryNode(), node, topics, recorder, shots, *viewer],
+    seconds = sum(limits) + 1.0
+    progress = []
+    if bar is not None:
+        bar.reset(total=seconds)
+        progress = [ProgressNode(bar)]
+    runner = Runner(sim, [WheelOdometryNode(), node, topics, recorder, shots, *viewer,
+                          *progress],
                     record_rate=1.0)
     if bag is not None:
         bag.__enter__()
@@ -136,7 +144,7 @@ def navigate_on_map(grid: msgs.OccupancyGrid, seed: int, bag_path: Path | None,
         for sink in (recorder, *viewer):
             sink.on_message("/tf_static", sim.static_transforms(), 0.0)
             sink.on_message("/map", grid, 0.0)
-        runner.run(sum(limits) + 1.0, until=lambda r: node.done)
+        runner.run(seconds, until=lambda r: node.done)
     finally:
         if bag is not None:
             bag.__exit__(None, None, None)
@@ -219,10 +227,22 @@ def _animation(grid: msgs.OccupancyGrid, result: dict[str, Any], html: Path) -> 
         title="Uiabot on its SLAM map: AMCL, planner, Regulated Pure Pursuit, people")
 
 
+def _bar(desc: str, total: float, unit: str, quiet: bool) -> Any:
+    """A progress bar on standard error, as the kit's commands draw them: on a terminal,
+    unless ``quiet`` (``KIT_FAST`` plays no part: it shortens notebooks, not this)."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, leave=False, file=sys.stderr, delay=0.5,
+                disable=quiet or not sys.stderr.isatty(),
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} {unit} "
+                           "[{elapsed}<{remaining}]")
+
+
 def main(out_dir: Path, seed: int = 7, config: NavigationConfig | None = None,
-         live: LiveView | None = None, speed: float | None = None) -> int:
+         live: LiveView | None = None, speed: float | None = None, quiet: bool = False) -> int:
     """Both phases; with ``live``, each is also served to that live view (Foxglove) at
-    ``speed`` times real time; ``config``: the navigation's configuration."""
+    ``speed`` times real time; ``config``: the navigation's configuration; ``quiet``: no
+    progress bars."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -232,9 +252,13 @@ def main(out_dir: Path, seed: int = 7, config: NavigationConfig | None = None,
     if mapping_bag.exists():
         shutil.rmtree(mapping_bag)
     viewer = [] if live is None else [LiveNode(live, demo.TOPICS, speed)]
-    drive = demo.run(seed=seed, people=0, bag_path=mapping_bag, nodes=viewer,
-                     clock_period=CLOCK_PERIOD)
-    slam = run_bag(read_bag_recording(mapping_bag))
+    drive_seconds = 240.0                   # demo.run's limit; the route ends sooner
+    with _bar("1. mapping drive", drive_seconds, "s simulated", quiet) as bar:
+        drive = demo.run(drive_seconds, seed=seed, people=0, bag_path=mapping_bag,
+                         nodes=[*viewer, ProgressNode(bar)], clock_period=CLOCK_PERIOD)
+    recording = read_bag_recording(mapping_bag)
+    with _bar("1. SLAM", len(recording.scans), "scans", quiet) as bar:
+        slam = run_bag(recording, progress=bar.update)
     occupancy = slam.occupancy_map(0.05)
     occupancy.save(out_dir / "demo_map.yaml")
     grid = occupancy.to_msg()
@@ -246,7 +270,8 @@ def main(out_dir: Path, seed: int = 7, config: NavigationConfig | None = None,
         shutil.rmtree(nav_bag)
     if live is not None:
         live.server.clear_session()       # the mapping drive's frames are done with
-    result = navigate_on_map(grid, seed, nav_bag, config, live, speed)
+    with _bar("2. navigating", 0, "s simulated", quiet) as bar:
+        result = navigate_on_map(grid, seed, nav_bag, config, live, speed, bar)
     rows = result["rows"]
     figures = scenarios.summary(rows, 0.5)
     print(f"2. navigated on the SLAM map with AMCL among 5 people: "

@@ -100,17 +100,20 @@ def _cast_scan(ox: FloatArray, oy: FloatArray, angles: FloatArray, segments: Flo
                max_range: float) -> FloatArray:  # pragma: no cover - compiled by numba
     n = angles.shape[0]
     out = np.empty(n)
+    m = segments.shape[0]
+    # each segment's start and direction, as the loop below would compute them for every beam
+    ax_, ay_ = segments[:, 0].copy(), segments[:, 1].copy()
+    ex_, ey_ = segments[:, 2] - ax_, segments[:, 3] - ay_
     for i in range(n):
         px, py = ox[i], oy[i]
         dx, dy = np.cos(angles[i]), np.sin(angles[i])
         best = np.inf
-        for j in range(segments.shape[0]):
-            ax, ay = segments[j, 0], segments[j, 1]
-            ex, ey = segments[j, 2] - ax, segments[j, 3] - ay
+        for j in range(m):
+            ex, ey = ex_[j], ey_[j]
             denom = dx * ey - dy * ex
             if denom == 0.0:
                 continue
-            wx, wy = ax - px, ay - py
+            wx, wy = ax_[j] - px, ay_[j] - py
             t = (wx * ey - wy * ex) / denom
             if t <= 1e-12 or t >= best:
                 continue
@@ -124,8 +127,14 @@ def _cast_scan(ox: FloatArray, oy: FloatArray, angles: FloatArray, segments: Flo
                 row = people[people_step[i], k - circles.shape[0]]
                 cx, cy, radius = row[0], row[1], row[2]
             qx, qy = px - cx, py - cy
+            q2 = qx * qx + qy * qy
+            # no point of the disc is nearer than |q| - radius: one farther than the best hit
+            # so far (with a micrometre to spare for rounding) cannot give a nearer one
+            reach = best + radius + 1e-6
+            if q2 >= reach * reach:
+                continue
             beta = dx * qx + dy * qy
-            gamma = qx * qx + qy * qy - radius * radius
+            gamma = q2 - radius * radius
             disc = beta * beta - gamma
             if gamma <= 0.0 or disc < 0.0:
                 continue

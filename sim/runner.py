@@ -46,8 +46,8 @@ from kit.odometry import Method, WheelOdometry
 from kit.progress import progress
 from sim.simulation import Simulation
 
-__all__ = ["FusionNode", "Node", "Recording", "Runner", "ScriptedCommands", "WheelOdometryNode",
-           "odometry_pose", "pose_of", "truth_pose"]
+__all__ = ["FusionNode", "Node", "ProgressNode", "Recording", "Runner", "ScriptedCommands",
+           "WheelOdometryNode", "odometry_pose", "pose_of", "truth_pose"]
 
 FloatArray = NDArray[np.float64]
 Published = Iterable[tuple[str, Any]]
@@ -76,6 +76,28 @@ class Node:
         return ()
 
     def on_tick(self, time: float) -> Published:
+        return ()
+
+
+class ProgressNode(Node):
+    """Moves a progress bar on with the sim clock: twice a simulated second, by the simulated
+    seconds since the run started. ``bar`` is anything with ``update(n)`` (a tqdm bar whose
+    total is the run's length in seconds)."""
+
+    rate = 2.0
+
+    def __init__(self, bar: Any) -> None:
+        self.bar = bar
+        self._start, self._shown = 0.0, 0.0
+
+    def start(self, sim: Simulation, robot: int) -> Published:
+        self._start, self._shown = sim.time, 0.0
+        return ()
+
+    def on_tick(self, time: float) -> Published:
+        done = time - self._start
+        self.bar.update(done - self._shown)
+        self._shown = done
         return ()
 
 

@@ -8,19 +8,59 @@ to walls and people (not glass) with noise and dropouts. Ground truth is never i
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 from kit import msgs
-from sim.raycast import beam_geometry, cast_scan, segments_near
+from sim.raycast import _beam_geometry, _cast_scan, segments_near
 
-__all__ = ["Imu", "Lidar", "encoder_counts"]
+__all__ = ["Imu", "Lidar", "encoder_counts", "stamp_of"]
 
 FloatArray = NDArray[np.float64]
 GRAVITY = 9.80665
+_time = msgs.Time.trusted_builder()
+_header = msgs.Header.trusted_builder()
+_vector3 = msgs.Vector3.trusted_builder()
+_quaternion = msgs.Quaternion.trusted_builder()
+_imu = msgs.Imu.trusted_builder()
+_ZERO_VECTOR = msgs.Vector3(0.0, 0.0, 0.0)
+_laser_scan = msgs.LaserScan.trusted_builder()
+_NO_PEOPLE = np.zeros((1, 0, 3))
+_NO_DRAWS = np.zeros(0)
+
+
+def stamp_of(seconds: float) -> msgs.Time:
+    """``msgs.Time.from_sec(seconds)`` for the simulator's own (finite) clock, unchecked."""
+    nanoseconds = round(seconds * 1e9)
+    return _time(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
+
+
+@njit(cache=True)
+def _measure(ranges: FloatArray, noise: FloatArray, drops: FloatArray, dropout: float,
+             range_min: float, range_max: float
+             ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:  # pragma: no cover
+    """A scan's true ranges [m] as the lidar reports them: plus ``noise`` (none when empty),
+    a beam dropped (``inf``) where ``drops < dropout`` (none when empty), ``inf`` beyond
+    ``range_max``, ``-inf`` under ``range_min`` (REP-117: too close to measure), in float32;
+    and the intensities (47 for a return, 0 for none)."""
+    n = ranges.shape[0]
+    out = np.empty(n, dtype=np.float32)
+    intensities = np.empty(n, dtype=np.float32)
+    for i in range(n):
+        r = ranges[i] + noise[i] if noise.shape[0] else ranges[i]
+        if drops.shape[0] and drops[i] < dropout:
+            r = np.inf
+        if r > range_max:
+            r = np.inf
+        if r < range_min:
+            r = -np.inf
+        out[i] = np.float32(r)
+        intensities[i] = np.float32(47.0) if np.isfinite(out[i]) else np.float32(0.0)
+    return out, intensities
 
 
 def encoder_counts(wheel_angle: FloatArray, ticks_per_wheel_turn: float, offset: NDArray[Any],
@@ -56,8 +96,11 @@ class Imu:
         self.yaw_bias = 0.0
         self.gyro_bias = float(rng.normal(0.0, float(params.get("gyro_bias_std", 0.0))))
         self.period = 1.0 / self.rate
+        # each bias's random-walk step per reading, as YAW_DRIFT * sqrt(period) * draw
+        self._yaw_drift_step = self.YAW_DRIFT * math.sqrt(self.period)
+        self._gyro_drift_step = self.GYRO_DRIFT * math.sqrt(self.period)
         self.next_time = 0.0
-        self._normals = np.empty(0)
+        self._normals: list[float] = []
         self._next_normal = 0
         self.cov_orientation = self._cov(self.yaw_std ** 2 or 1e-6, 1e-6)
         self.cov_gyro = self._cov(self.gyro_std ** 2, 1e-6) if self.gyro_std else \
@@ -82,44 +125,44 @@ class Imu:
     def due(self, time: float) -> bool:
         return time + 1e-12 >= self.next_time
 
-    def _draws(self) -> tuple[float, ...]:
+    def _draws(self) -> list[float]:
         """Seven standard normal draws, taken from a block drawn ahead (fewer rng calls)."""
         i = self._next_normal
         if i + 7 > len(self._normals):
-            self._normals = self.rng.standard_normal(7 * 256)
+            self._normals = self.rng.standard_normal(7 * 256).tolist()
             i = 0
         self._next_normal = i + 7
-        return tuple(self._normals[i:i + 7].tolist())
+        return self._normals[i:i + 7]
 
     def measure(self, time: float, yaw: float, yaw_rate: float, yaw_accel: float,
-                accel_body: tuple[float, float]) -> msgs.Imu:
-        """One reading at ``time`` of the body's true yaw, rates and base_link acceleration."""
-        dt = self.period
-        self.next_time += dt
+                accel_body: tuple[float, float], header: msgs.Header | None = None
+                ) -> msgs.Imu:
+        """One reading at ``time`` of the body's true yaw, rates and base_link acceleration
+        (``header``: the message's, when the caller has it: stamped ``time``, in
+        ``frame_id``)."""
+        self.next_time += self.period
         n_yaw_bias, n_gyro_bias, n_yaw, n_rate, n_ax, n_ay, n_az = self._draws()
-        self.yaw_bias += self.YAW_DRIFT * math.sqrt(dt) * n_yaw_bias
-        self.gyro_bias += self.GYRO_DRIFT * math.sqrt(dt) * n_gyro_bias
+        self.yaw_bias += self._yaw_drift_step * n_yaw_bias
+        self.gyro_bias += self._gyro_drift_step * n_gyro_bias
         measured_yaw = yaw + self.yaw_bias + self.yaw_std * n_yaw
         rate = yaw_rate + self.gyro_bias + self.gyro_std * n_rate if self.gyro_std else 0.0
         # acceleration at the mounting point: a + alpha x r + omega x (omega x r)
         mx, my = self.mount
         ax = accel_body[0] - yaw_accel * my - yaw_rate * yaw_rate * mx
         ay = accel_body[1] + yaw_accel * mx - yaw_rate * yaw_rate * my
-        # built with Message.trusted: every value here is already a float or a read-only
-        # array of the right shape, and this runs at the IMU's rate for every robot
-        vector, trusted = msgs.Vector3.trusted, msgs.Imu.trusted
+        # built with Message.trusted's builders: every value here is already a float or a
+        # read-only array of the right shape, and this runs at the IMU's rate for every robot
         if self.accel_std:
             sd = self.accel_std
-            accel = vector(ax + sd * n_ax, ay + sd * n_ay, GRAVITY + sd * n_az)
+            accel = _vector3(ax + sd * n_ax, ay + sd * n_ay, GRAVITY + sd * n_az)
         else:
-            accel = vector(0.0, 0.0, 0.0)
+            accel = _ZERO_VECTOR   # messages are immutable: one zero vector serves them all
         half = 0.5 * measured_yaw
-        nanoseconds = round(time * 1e9)
-        stamp = msgs.Time.trusted(nanoseconds // 1_000_000_000, nanoseconds % 1_000_000_000)
-        return trusted(msgs.Header.trusted(stamp, self.frame_id),
-                       msgs.Quaternion.trusted(0.0, 0.0, math.sin(half), math.cos(half)),
-                       self.cov_orientation, vector(0.0, 0.0, float(rate)), self.cov_gyro,
-                       accel, self.cov_accel)
+        if header is None:
+            header = _header(stamp_of(time), self.frame_id)
+        return _imu(header, _quaternion(0.0, 0.0, math.sin(half), math.cos(half)),
+                    self.cov_orientation, _vector3(0.0, 0.0, float(rate)), self.cov_gyro,
+                    accel, self.cov_accel)
 
 
 class Lidar:
@@ -165,11 +208,14 @@ class Lidar:
         self.rng = rng
         self.scan_start = 0.0
         self._times: list[float] = []
-        self._poses: list[FloatArray] = []
+        self._poses: list[Sequence[float]] = []
         self._people: list[FloatArray] = []
         self.last_ranges: FloatArray = np.full(self.beams, np.inf)
         """float64 ranges of the last scan, before noise (for tests against geometry)."""
-        self._near: tuple[int, FloatArray, FloatArray] | None = None
+        self._near: tuple[FloatArray, float, float, FloatArray] | None = None
+        self._circles_cache: tuple[FloatArray, FloatArray] | None = None
+        self._mount_x, self._mount_y = float(mount[0]), float(mount[1])
+        self._angle0 = float(mount[2]) + float(self.angle_min)   # as beam_geometry adds them
         # the scan's float32 fields, rounded once (LaserScan stores them as float32)
         self._fields32 = tuple(float(np.float32(v)) for v in (
             self.angle_min, self.angle_min + self.increment * (self.beams - 1), self.increment,
@@ -179,7 +225,7 @@ class Lidar:
         return np.asarray(self.scan_start + self.time_increment * np.arange(self.beams),
                           dtype=np.float64)
 
-    def collect(self, t0: float, t1: float, pose0: FloatArray, pose1: FloatArray,
+    def collect(self, t0: float, t1: float, pose0: Sequence[float], pose1: Sequence[float],
                 people: FloatArray, segments: FloatArray, circles: FloatArray,
                 ) -> msgs.LaserScan | None:
         """Record one physics step (sensor-carrier poses at ``t0`` and ``t1``, the people's
@@ -195,41 +241,50 @@ class Lidar:
         return self._finish(segments, circles)
 
     def _finish(self, segments: FloatArray, circles: FloatArray) -> msgs.LaserScan:
-        origins, angles, step = beam_geometry(
+        # beam_geometry and cast_scan without their wrappers' conversions: every argument
+        # here already has its type, and this runs for every scan of every robot
+        ox, oy, angles, step = _beam_geometry(
             np.array(self._times), np.array(self._poses), self.scan_start,
-            self.time_increment, self.beams, self.mount, self.angle_min, self.increment)
-        near = self._segments_near(segments, origins[0])
+            self.time_increment, self.beams, self._mount_x, self._mount_y, self._angle0,
+            self.increment)
+        near = self._segments_near(segments, float(ox[0]), float(oy[0]))
         # each beam sees the people where they were during its physics step
-        people = np.stack(self._people) if self._people and self._people[0].size else \
-            np.zeros((1, 0, 3))
-        ranges = cast_scan(origins, angles, near, circles, people, step, self.range_max)
+        people = np.array(self._people) if self._people[0].size else _NO_PEOPLE
+        ranges = _cast_scan(ox, oy, angles, near, self._circles(circles), people, step,
+                            self.range_max)
         # keep the last step: the next scan's first beams may fall inside it
         self._times, self._poses = self._times[-2:], self._poses[-2:]
         self._people = self._people[-1:]
-        self.last_ranges = ranges.copy()
-        measured = ranges + self.rng.normal(0.0, self.noise_std, self.beams) \
-            if self.noise_std else ranges.copy()
-        if self.dropout:
-            measured[self.rng.random(self.beams) < self.dropout] = np.inf
-        measured[measured > self.range_max] = np.inf
-        measured[measured < self.range_min] = -np.inf  # REP-117: too close to measure
-        ranges32 = measured.astype(np.float32)
-        intensities = np.where(np.isfinite(ranges32), np.float32(47.0), np.float32(0.0))
+        self.last_ranges = ranges
+        noise = self.rng.normal(0.0, self.noise_std, self.beams) if self.noise_std else \
+            _NO_DRAWS
+        drops = self.rng.random(self.beams) if self.dropout else _NO_DRAWS
+        ranges32, intensities = _measure(ranges, noise, drops, self.dropout, self.range_min,
+                                         self.range_max)
         ranges32.flags.writeable = intensities.flags.writeable = False  # handed over
         # every field is already normal (float32-rounded numbers, read-only float32 arrays)
-        scan = msgs.LaserScan.trusted(
-            msgs.Header.trusted(msgs.Time.from_sec(self.scan_start), self.frame_id),
-            *self._fields32, ranges32, intensities)
+        scan = _laser_scan(_header(stamp_of(self.scan_start), self.frame_id),
+                           *self._fields32, ranges32, intensities)
         self.scan_start += 1.0 / self.rate
         return scan
 
-    def _segments_near(self, segments: FloatArray, origin: FloatArray) -> FloatArray:
-        """The walls within reach, culled again only when the sensor has moved more than a
-        metre from where they were last culled (the cull keeps a metre to spare, so the
-        beams meet the same walls)."""
+    def _circles(self, circles: FloatArray) -> FloatArray:
+        """The world's discs as the caster takes them (contiguous (K, 3)), converted once."""
+        cached = self._circles_cache
+        if cached is None or cached[0] is not circles:
+            self._circles_cache = cached = (circles, np.ascontiguousarray(
+                circles, dtype=np.float64).reshape(-1, 3))
+        return cached[1]
+
+    def _segments_near(self, segments: FloatArray, x: float, y: float) -> FloatArray:
+        """The walls within reach of the sensor at (x, y), culled again only when it has moved
+        more than a metre from where they were last culled (the cull keeps a metre to spare,
+        so the beams meet the same walls)."""
         cached = self._near
-        if cached is None or cached[0] != id(segments) or \
-                abs(origin[0] - cached[1][0]) > 1.0 or abs(origin[1] - cached[1][1]) > 1.0:
-            near = segments_near(segments, origin, self.range_max + 2.0)
-            self._near = cached = (id(segments), origin.copy(), near)
-        return cached[2]
+        if cached is None or cached[0] is not segments or \
+                abs(x - cached[1]) > 1.0 or abs(y - cached[2]) > 1.0:
+            near = np.ascontiguousarray(
+                segments_near(segments, np.array((x, y)), self.range_max + 2.0),
+                dtype=np.float64).reshape(-1, 4)
+            self._near = cached = (segments, x, y, near)
+        return cached[3]

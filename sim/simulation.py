@@ -32,12 +32,14 @@ from typing import Any
 import numpy as np
 import pymunk
 from numpy.typing import ArrayLike, NDArray
+from pymunk._chipmunk_cffi import lib as _chipmunk
 
 from kit import geometry, kinematics, msgs
 from kit.control import DCMotor
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
-from sim.sensors import Imu, Lidar, encoder_counts
+from sim import _walk as _walk_rules
+from sim.sensors import Imu, Lidar, encoder_counts, stamp_of
 from sim.world import World, along_walls, free_distance, load_world
 
 __all__ = ["Collision", "GroundTruth", "Physics", "Simulation"]
@@ -50,6 +52,18 @@ _NO_EFFORT = np.empty(0)
 _NO_EFFORT.flags.writeable = False
 _WHEEL_JOINTS = ("right_wheel_joint", "left_wheel_joint")
 Command = msgs.Twist | Sequence[float] | NDArray[np.float64] | None
+
+# Chipmunk's own functions under pymunk (7.x) for the per-step reads and writes, on the
+# bodies' C handles (``Body._body``): what pymunk's properties call, without their wrapping
+# (tests/sim/test_simulation_speed.py checks they agree with the properties).
+_body_angle = _chipmunk.cpBodyGetAngle
+_body_position = _chipmunk.cpBodyGetPosition
+_body_velocity = _chipmunk.cpBodyGetVelocity
+_body_angular_velocity = _chipmunk.cpBodyGetAngularVelocity
+_set_body_velocity = _chipmunk.cpBodySetVelocity
+_space_step = _chipmunk.cpSpaceStep
+_header = msgs.Header.trusted_builder()
+_joint_state = msgs.JointState.trusted_builder()
 
 
 @dataclass(frozen=True)
@@ -165,17 +179,22 @@ class _Robot:
     imu: Imu | None
     topic_prefix: str
     tick_offset: NDArray[np.int64]
-    wheel_speed: FloatArray = field(default_factory=lambda: np.zeros(2))
     wheel_target: FloatArray = field(default_factory=lambda: np.zeros(2))
-    wheel_angle: FloatArray = field(default_factory=lambda: np.zeros(2))
-    pose: FloatArray = field(default_factory=lambda: np.zeros(3))
-    velocity: FloatArray = field(default_factory=lambda: np.zeros(2))
     world_velocity: tuple[float, float] = (0.0, 0.0)
     accel: tuple[float, float] = (0.0, 0.0)
     yaw_accel: float = 0.0
     next_joint_state: float = 0.02  # 50 Hz, on the multiples of 20 ms
     controllers: list[Any] = field(default_factory=list)
     on_oil: list[bool] = field(default_factory=lambda: [False, False])
+    limit: float = 0.0
+    """[rad/s] the most a servo changes its wheel's speed in one step."""
+    radius_factors: tuple[float, ...] = (1.0, 1.0)
+    """(right, left) true rolling radius / nominal radius."""
+    wheel_points: tuple[tuple[float, float], ...] = ((0.0, 0.0), (0.0, 0.0))
+    """(right, left) wheels' contact points (x, y) in base_link [m]."""
+    """(right, left) wheels' y in base_link [m]."""
+    oil_force: float = 0.0
+    """[N] a wheel's traction on oil."""
 
     @property
     def topics(self) -> tuple[str, str, str]:
@@ -184,26 +203,90 @@ class _Robot:
     def __post_init__(self) -> None:
         self._topics = (self.topic_prefix + "/scan", self.topic_prefix + "/imu",
                         self.topic_prefix + "/joint_states")
+        # the step's state as plain floats (numpy scalars cost ten times more to touch)
+        self.speeds: list[float] = [0.0, 0.0]
+        """(right, left) wheel speeds [rad/s] the servos turn the wheels at."""
+        self.angles: list[float] = [0.0, 0.0]
+        """(right, left) total wheel rotations [rad], what the encoders count."""
+        self.targets: tuple[float, float] = (0.0, 0.0)
+        self.x = self.y = self.yaw = self.yaw_rate = self.forward_speed = 0.0
+        self.xy_yaw: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        """(x, y, yaw) [m, m, rad] as plain floats (a new tuple each step, never changed)."""
+        self.cp_body: Any = self.body._body
+        self.cp_grounds: tuple[Any, ...] = tuple(g._body for g in self.grounds)
+
+    @property
+    def pose(self) -> FloatArray:
+        """(x, y, yaw) of base_link in the world [m, m, rad] (a new array)."""
+        return np.array(self.xy_yaw)
+
+    @property
+    def velocity(self) -> FloatArray:
+        """(v, ω) in base_link [m/s, rad/s] (a new array)."""
+        return np.array((self.forward_speed, self.yaw_rate))
+
+    @property
+    def wheel_speed(self) -> FloatArray:
+        """(right, left) wheel speeds [rad/s] (a copy)."""
+        return np.array(self.speeds)
+
+    @property
+    def wheel_angle(self) -> FloatArray:
+        """(right, left) total wheel rotations [rad] (a copy)."""
+        return np.array(self.angles)
 
 
-@dataclass
+class _Crowd:
+    """The people's walking states, one row per person, as arrays (the compiled rules of
+    :mod:`sim._walk` update them in place); each :class:`_Person` is a view on its row."""
+
+    def __init__(self, n: int) -> None:
+        self.target = np.zeros(n, dtype=np.int64)
+        self.direction = np.ones(n, dtype=np.int64)
+        self.speed = np.zeros(n)
+        self.blocked = np.zeros(n)
+        self.alcove = np.full(n, -1, dtype=np.int64)
+        self.stage = np.zeros(n, dtype=np.int64)
+
+
+class _Row:
+    """A :class:`_Person`'s attribute kept in the crowd's array of the same name."""
+
+    def __init__(self, kind: type) -> None:
+        self.kind = kind
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, person: Any, owner: type | None = None) -> Any:
+        return self.kind(getattr(person.crowd, self.name)[person.index])
+
+    def __set__(self, person: Any, value: Any) -> None:
+        getattr(person.crowd, self.name)[person.index] = value
+
+
 class _Person:
-    body: pymunk.Body
-    ground: pymunk.Body
-    route: FloatArray
-    target: int
-    direction: int
-    speed: float
-    blocked: float = 0.0
-    """Seconds this person has been held up by a robot in their way."""
-    alcove: int = -1
-    """The alcove this person is stepping into, waiting in or leaving (-1: none)."""
-    stage: int = 0
-    """1: to its front, 2: into it, 3: waiting, 4: back out to its front."""
-    scripted: bool = False
-    """moved only by :meth:`Simulation.move_person` (a scenario's bystander), never by the
-    walking rules."""
+    """A pedestrian: their body, the kinematic ground body their feet push against, their
+    route, and their walking state (a row of the simulation's :class:`_Crowd`)."""
 
+    target = _Row(int)
+    """The route point they walk to."""
+    direction = _Row(int)
+    """+1 or -1: along their route or back."""
+    speed = _Row(float)
+    """[m/s] their walking pace."""
+    blocked = _Row(float)
+    """Seconds this person has been held up by a robot in their way."""
+    alcove = _Row(int)
+    """The alcove this person is stepping into, waiting in or leaving (-1: none)."""
+    stage = _Row(int)
+    """1: to its front, 2: into it, 3: waiting, 4: back out to its front."""
+
+    def __init__(self, crowd: _Crowd, index: int, body: pymunk.Body, ground: pymunk.Body,
+                 route: FloatArray) -> None:
+        self.crowd, self.index = crowd, index
+        self.body, self.ground, self.route = body, ground, route
+        self.cp_body, self.cp_ground = body._body, ground._body
 
 
 def _at_most_walking_speed(vx: float, vy: float) -> tuple[float, float]:
@@ -264,6 +347,9 @@ class Simulation:
         False turns the lidar and IMU off (physics and encoders only).
     """
 
+    compiled_walk = True
+    """False walks the people by the readable Python rules (the compiled ones' reference)."""
+
     def __init__(self, world: str | World = "office",
                  robot: str | RobotDescription | Sequence[str | RobotDescription] = "uiabot",
                  seed: int = 0, people: int = 0, start: Any = None,
@@ -312,12 +398,27 @@ class Simulation:
         starts = self._start_poses()
         self.robots = [self._add_robot(d, pose, i) for i, (d, pose) in
                        enumerate(zip(self.descriptions, starts, strict=True))]
+        self._crowd = _Crowd(self.n_people)
         self.people = [self._add_person(i) for i in range(self.n_people)]
         self._body_index = {r.body: i for i, r in enumerate(self.robots)}
         space.on_collision(ROBOT, WALL, begin=self._on_contact, data="wall")
         space.on_collision(ROBOT, PERSON, begin=self._on_contact, data="person")
         space.on_collision(ROBOT, ROBOT, begin=self._on_contact, data="robot")
-        self._people_discs = self._discs()
+        self._oil = len(self.world.oil) > 0
+        self._people_bodies = tuple(p.body._body for p in self.people)
+        self.bystanders: list[pymunk.Body] = []
+        """the grounds (feet) of the people :meth:`add_bystander` placed."""
+        # the people's routes stacked, for the compiled rules: (points, start, length)
+        lengths = [len(p.route) for p in self.people]
+        self._routes = (np.concatenate([p.route for p in self.people]).reshape(-1, 2)
+                        if self.people else np.zeros((0, 2)),
+                        np.cumsum([0, *lengths])[:-1].astype(np.int64),
+                        np.array(lengths, dtype=np.int64))
+        corners = [len(r.description.footprint) for r in self.robots]
+        self._footprints = (
+            np.array(corners, dtype=np.int64),
+            np.array([float(np.ptp(r.description.footprint[:, 1])) for r in self.robots]),
+            max(corners, default=0))
         for r in self.robots:
             self._read_state(r)
 
@@ -367,6 +468,11 @@ class Simulation:
         prefix = "" if len(self.descriptions) == 1 else f"/robot{index}"
         offset = self.rng.integers(0, 1 << min(d.counter_bits, 62), 2, dtype=np.int64)
         robot = _Robot(d, body, grounds, joints, traction, lidar, imu, prefix, offset)
+        # the drive's constants, each computed as the step used to compute it
+        robot.limit = ph.motor_acceleration / d.wheel_radius * ph.dt
+        robot.radius_factors = tuple(1.0 + e for e in ph.wheel_radius_errors)
+        robot.wheel_points = tuple((ax, ay + f * d.wheel_separation) for f in (-0.5, 0.5))
+        robot.oil_force = ph.oil_friction / ph.friction * traction
         if self._controller_factory is not None:
             robot.controllers = [self._controller_factory(), self._controller_factory()]
         return robot
@@ -378,8 +484,10 @@ class Simulation:
         a, b = route[leg], route[min(leg + 1, len(route) - 1)]
         start = a + f * (b - a)
         body, ground = self._person_body(float(start[0]), float(start[1]))
-        return _Person(body, ground, route, min(leg + 1, len(route) - 1), 1,
-                       float(self.rng.uniform(0.8, 1.4)))
+        person = _Person(self._crowd, index, body, ground, route)
+        person.target, person.direction = min(leg + 1, len(route) - 1), 1
+        person.speed = float(self.rng.uniform(0.8, 1.4))
+        return person
 
     def _person_body(self, x: float, y: float) -> tuple[pymunk.Body, pymunk.Body]:
         """A person's disc at (x, y) and the ground it walks on (their feet)."""
@@ -395,6 +503,29 @@ class Simulation:
         self.space.add(body, shape, ground, joint)
         return body, ground
 
+    def add_bystander(self, position: ArrayLike) -> int:
+        """A person standing at ``position`` [m] who moves only when a scenario says so
+        (:meth:`move_person`), never by the walking rules: someone who steps into a robot's
+        way and waits there. Returns their index among :meth:`people_positions` (after the
+        walking people)."""
+        x, y = (float(v) for v in np.asarray(position, dtype=float).reshape(2))
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError(f"a bystander needs a finite (x, y) position; got {position!r}")
+        body, ground = self._person_body(x, y)
+        self.bystanders.append(ground)
+        self._people_bodies += (body._body,)
+        return len(self.people) + len(self.bystanders) - 1
+
+    def move_person(self, index: int, velocity: ArrayLike) -> None:
+        """Set a bystander's walking velocity [m/s] (at most walking speed) until told
+        otherwise."""
+        k = index - len(self.people)
+        if not 0 <= k < len(self.bystanders):
+            raise ValueError(f"person {index} walks by the simulator's rules; only a "
+                             f"bystander (add_bystander) is moved by a scenario")
+        vx, vy = (float(v) for v in np.asarray(velocity, dtype=float).reshape(2))
+        self.bystanders[k].velocity = _at_most_walking_speed(vx, vy)
+
     def _on_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: Any) -> None:
         for shape in arbiter.shapes:
             if shape.body is None:
@@ -406,18 +537,60 @@ class Simulation:
 
     # ------------------------------------------------------------------ stepping
     def _discs(self) -> FloatArray:
-        if not self.people:
+        """(P, 3) the people as discs (x, y, radius) [m], where they are now."""
+        if not self._people_bodies:
             return _NO_DISCS
-        return np.array([(*p.body.position, PERSON_RADIUS) for p in self.people])
+        discs: list[float] = []
+        for body in self._people_bodies:
+            position = _body_position(body)
+            discs += (position.x, position.y, PERSON_RADIUS)
+        return np.array(discs).reshape(-1, 3)
 
     def _walk(self) -> None:
-        robots = [(float(r.pose[0]), float(r.pose[1])) for r in self.robots]
+        """Every person decides where to walk for the next tenth of a second: the rules of
+        :meth:`_walk_reference`, compiled (:mod:`sim._walk`; the same numbers to the bit)."""
+        if not self.compiled_walk:
+            self._walk_reference()
+            return
+        crowd, people, robots = self._crowd, self.people, self.robots
+        where_they_are: list[float] = []
+        how_they_move: list[float] = []
+        for p in people:
+            position, velocity = _body_position(p.cp_body), _body_velocity(p.cp_body)
+            where_they_are += (position.x, position.y)
+            how_they_move += (velocity.x, velocity.y)
+        positions = np.array(where_they_are).reshape(-1, 2)
+        body_velocities = np.array(how_they_move).reshape(-1, 2)
+        routes, start, length = self._routes
+        new_speed = _walk_rules.arrive(positions, routes, start, length, crowd.alcove,
+                                       crowd.target, crowd.direction)
+        for i in new_speed.tolist():                # drawn in order, as the rules do
+            crowd.speed[i] = float(self.rng.uniform(0.8, 1.4))
+        corners, widths, most = self._footprints
+        outlines = np.zeros((len(robots), most, 2))
+        for k, r in enumerate(robots):
+            # kit.geometry.transform_points's arithmetic: numpy's product (which may fuse a
+            # multiply and an add), then the position added
+            c, s = math.cos(r.yaw), math.sin(r.yaw)
+            rotated = r.description.footprint @ np.array(((c, -s), (s, c))).T
+            np.add(rotated, (r.x, r.y), out=outlines[k, :corners[k]])
+        where = np.array([(r.x, r.y) for r in robots]).reshape(-1, 2)
+        moving = np.array([r.world_velocity for r in robots]).reshape(-1, 2)
+        walking = _walk_rules.walk(positions, body_velocities, crowd.speed, routes, start,
+                                   length, crowd.target, crowd.direction, crowd.blocked,
+                                   crowd.alcove, crowd.stage, where, moving, outlines, corners,
+                                   widths, self.world.segments, self.world.alcoves)
+        for i, (vx, vy) in enumerate(walking.tolist()):
+            _set_body_velocity(people[i].cp_ground, (vx, vy))
+
+    def _walk_reference(self) -> None:
+        """The people's rules in plain Python: the reference the compiled rules are tested
+        against (``compiled_walk = False`` runs a simulation on it)."""
+        robots = [(r.x, r.y) for r in self.robots]
         outlines = [geometry.transform_points(r.pose, r.description.footprint)
                     for r in self.robots]
         velocities = [r.world_velocity for r in self.robots]
         for p in self.people:
-            if p.scripted:
-                continue
             px, py = p.body.position
             if p.alcove >= 0:
                 self._walk_aside(p, px, py, robots, velocities, outlines)
@@ -470,7 +643,7 @@ class Simulation:
         across the passage (the narrower of where the person and the robot are), less the
         robot's width, under a body and 0.3 m."""
         for r in self.robots:
-            rx, ry = float(r.pose[0]), float(r.pose[1])
+            rx, ry = r.x, r.y
             d = math.hypot(rx - px, ry - py)
             if d >= 3.5 or (rx - px) * ux + (ry - py) * uy <= 0.5 * d:
                 continue
@@ -632,67 +805,74 @@ class Simulation:
             if target.shape != (2,) or not np.all(np.isfinite(target)):
                 raise ValueError(f"a wheel command is (right, left) in rad/s; got {cmd!r}")
         r.wheel_target = kinematics.saturate_wheel_speeds(target, d.max_wheel_speed)
+        r.targets = (float(r.wheel_target[0]), float(r.wheel_target[1]))
 
     def _drive(self, r: _Robot, dt: float) -> None:
+        """The wheel servos (or motors) one step on, and the traction joints' ground bodies
+        moved at the wheels' rim speeds. The arithmetic, operation for operation, of the
+        model in the module's docstring; pymunk is reached through its C functions (the
+        property wrappers cost several times the physics)."""
         d = r.description
         ph = self.physics
-        limit = ph.motor_acceleration / d.wheel_radius * dt
-        body = r.body
-        angle = body.angle
+        limit, wheel_radius = r.limit, d.wheel_radius
+        cp_body = r.cp_body
+        angle = _body_angle(cp_body)
         c, s = math.cos(angle), math.sin(angle)
-        oily = len(self.world.oil) > 0
-        if oily:
-            px, py = body.position
-            oil_force = ph.oil_friction / ph.friction * r.traction
-        speeds = r.wheel_speed
+        speeds, angles, targets = r.speeds, r.angles, r.targets
         # the ground bodies' positions do not matter: anchored at their centres and never
         # rotating, they only lend the joints their velocity
         motor = ph.wheel_motor
         for k in (0, 1):
             if motor is not None:
-                volts = float(r.controllers[k](float(r.wheel_target[k]), float(speeds[k])))
+                volts = float(r.controllers[k](targets[k], speeds[k]))
                 volts = min(max(volts, -motor.voltage), motor.voltage)
-                speed = motor.quasi_static_step(float(speeds[k]), volts, dt)
+                speed = motor.quasi_static_step(speeds[k], volts, dt)
             else:
-                change = float(r.wheel_target[k]) - float(speeds[k])
-                speed = float(speeds[k]) + (limit if change > limit else
-                                            -limit if change < -limit else change)
+                change = targets[k] - speeds[k]
+                speed = speeds[k] + (limit if change > limit else
+                                     -limit if change < -limit else change)
             speeds[k] = speed
-            r.wheel_angle[k] += speed * dt
-            rim = speed * d.wheel_radius * (1.0 + ph.wheel_radius_errors[k])
+            angles[k] += speed * dt
+            rim = speed * wheel_radius * r.radius_factors[k]
             if ph.slip_variance:
                 # the wheel turns a little more or less than it rolls over the floor: an
                 # error of variance k |Δs| in what the encoder counts over this step
                 slip = math.sqrt(ph.slip_variance * abs(rim) * dt) * \
                     float(self.rng.standard_normal())
-                r.wheel_angle[k] += slip / d.wheel_radius
-            r.grounds[k].velocity = (rim * c, rim * s)
-            if oily:
-                x = float(d.axle[0])
-                y = float(d.axle[1]) + (-0.5 if k == 0 else 0.5) * d.wheel_separation
+                angles[k] += slip / wheel_radius
+            _set_body_velocity(r.cp_grounds[k], (rim * c, rim * s))
+        if self._oil:
+            position = _body_position(cp_body)
+            px, py = position.x, position.y
+            for k in (0, 1):
+                x, y = r.wheel_points[k]
                 slippery = self.world.in_oil(px + c * x - s * y, py + s * x + c * y)
                 if slippery != r.on_oil[k]:  # pymunk's setters are dear: only on a change
                     r.on_oil[k] = slippery
-                    r.joints[k].max_force = oil_force if slippery else r.traction
+                    r.joints[k].max_force = r.oil_force if slippery else r.traction
 
     def _read_state(self, r: _Robot, dt: float | None = None) -> None:
-        b = r.body
-        angle = b.angle
-        yaw = float(geometry.wrap_angle(angle))
-        vx, vy = b.velocity
+        cp_body = r.cp_body
+        angle = _body_angle(cp_body)
+        # geometry.wrap_angle's arithmetic on a float
+        yaw = (angle + math.pi) % (2.0 * math.pi) - math.pi
+        if yaw >= math.pi:
+            yaw = yaw - 2.0 * math.pi
+        velocity = _body_velocity(cp_body)
+        vx, vy = velocity.x, velocity.y
         c, s = math.cos(angle), math.sin(angle)
         v_forward = c * vx + s * vy
-        w = float(b.angular_velocity)
+        w = _body_angular_velocity(cp_body)
         if dt:
             # acceleration in base_link: the change of the world velocity, rotated in
             ax_w = (vx - r.world_velocity[0]) / dt
             ay_w = (vy - r.world_velocity[1]) / dt
             r.accel = (c * ax_w + s * ay_w, -s * ax_w + c * ay_w)
-            r.yaw_accel = (w - float(r.velocity[1])) / dt
+            r.yaw_accel = (w - r.yaw_rate) / dt
         r.world_velocity = (vx, vy)
-        px, py = b.position
-        r.pose = np.array([px, py, yaw])
-        r.velocity = np.array([v_forward, w])
+        position = _body_position(cp_body)
+        r.x, r.y, r.yaw, r.yaw_rate, r.forward_speed = position.x, position.y, yaw, w, v_forward
+        r.xy_yaw = (position.x, position.y, yaw)
 
     def step(self, cmd: Command | Mapping[int, Command] = None) -> list[tuple[str, Any]]:
         """Advance by one physics step (``physics.dt``).
@@ -707,35 +887,62 @@ class Simulation:
             for index, c in commands.items():
                 self._set_command(self.robots[index], c)
         ph = self.physics
+        dt = ph.dt
         t0 = self.time
-        t1 = round((self.time + ph.dt) * 1e9) * 1e-9
-        step_index = round(t1 / ph.dt)
-        if self.people and step_index % 10 == 0:
+        t1 = round((t0 + dt) * 1e9) * 1e-9
+        if self.people and round(t1 / dt) % 10 == 0:
             self._walk()  # people decide where to go ten times a second
-        before = [r.pose for r in self.robots]  # _read_state replaces, never mutates, pose
-        for r in self.robots:
-            self._drive(r, ph.dt)
-        sub = ph.dt / ph.substeps
-        for _ in range(ph.substeps):
-            self.space.step(sub)
+        robots = self.robots
+        before = [r.xy_yaw for r in robots]  # _read_state replaces it with a new tuple
+        for r in robots:
+            self._drive(r, dt)
+        self._step_space(dt / ph.substeps, ph.substeps)
         self.time = t1
         out: list[tuple[str, Any]] = []
-        discs = self._discs() if self.people else _NO_DISCS
-        for i, r in enumerate(self.robots):
-            self._read_state(r, ph.dt)
+        discs = self._discs() if self._people_bodies else _NO_DISCS
+        segments, circles = self.world.lidar_segments, self.world.circles
+        # this step's headers, one per frame: every robot's messages share them (immutable)
+        headers: dict[str, msgs.Header] = {}
+        for i, r in enumerate(robots):
+            self._read_state(r, dt)
             if r.lidar is not None:
-                scan = r.lidar.collect(t0, t1, before[i], r.pose, discs,
-                                       self.world.lidar_segments, self.world.circles)
+                scan = r.lidar.collect(t0, t1, before[i], r.xy_yaw, discs, segments, circles)
                 if scan is not None:
                     out.append((r.topics[0], scan))
-            if r.imu is not None and r.imu.due(t1):
-                out.append((r.topics[1],
-                            r.imu.measure(t1, float(r.pose[2]), float(r.velocity[1]),
-                                          r.yaw_accel, r.accel)))
+            imu = r.imu
+            if imu is not None and t1 + 1e-12 >= imu.next_time:
+                header = headers.get(imu.frame_id) or self._header(headers, imu.frame_id)
+                out.append((r.topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
+                                                     r.accel, header)))
             if t1 + 1e-12 >= r.next_joint_state:
                 r.next_joint_state += 0.02
-                out.append((r.topics[2], self.joint_state(i)))
+                header = headers.get("") or self._header(headers, "")
+                out.append((r.topics[2], self._joint_state(r, header)))
         return out
+
+    def _header(self, headers: dict[str, msgs.Header], frame_id: str) -> msgs.Header:
+        """The header of this step's messages in ``frame_id``, made once (into ``headers``)."""
+        stamp = next(iter(headers.values())).stamp if headers else stamp_of(self.time)
+        header = headers[frame_id] = _header(stamp, frame_id)
+        return header
+
+    def _step_space(self, dt: float, substeps: int) -> None:
+        """``pymunk.Space.step`` ``substeps`` times: straight into Chipmunk when there is none
+        of the bookkeeping the wrapper does around it to do (bodies to check, objects added or
+        removed from callbacks, post-step callbacks; the simulator uses none of them)."""
+        space = self.space
+        if space._bodies_to_check or space._add_later or space._remove_later or \
+                space._post_step_callbacks:
+            for _ in range(substeps):
+                space.step(dt)
+            return
+        cp_space = space._space
+        space._locked = True
+        try:
+            for _ in range(substeps):
+                _space_step(cp_space, dt)
+        finally:
+            space._locked = False
 
     def run(self, seconds: float, cmd: Command | Mapping[int, Command] = None
             ) -> list[tuple[str, Any]]:
@@ -772,46 +979,29 @@ class Simulation:
 
     def joint_state(self, robot: int = 0) -> msgs.JointState:
         """Wheel positions [rad] from the encoders (quantised) and the servos' speeds."""
-        r = self.robots[robot]
+        return self._joint_state(self.robots[robot], _header(stamp_of(self.time), ""))
+
+    @staticmethod
+    def _joint_state(r: _Robot, header: msgs.Header) -> msgs.JointState:
         per_rad = r.description.ticks_per_wheel_turn / (2 * math.pi)
-        position = np.floor(r.wheel_angle * per_rad) / per_rad
-        velocity = r.wheel_speed.copy()
+        right, left = r.angles
+        position = np.array((math.floor(right * per_rad) / per_rad,
+                             math.floor(left * per_rad) / per_rad))
+        velocity = np.array(r.speeds)
         position.flags.writeable = velocity.flags.writeable = False  # handed over, not copied
         # fresh read-only float64 arrays and a tuple of names: nothing for __init__ to check
-        return msgs.JointState.trusted(msgs.Header.trusted(self.clock(), ""), _WHEEL_JOINTS,
-                                       position, velocity, _NO_EFFORT)
+        return _joint_state(header, _WHEEL_JOINTS, position, velocity, _NO_EFFORT)
 
     def ground_truth(self, robot: int = 0) -> GroundTruth:
         r = self.robots[robot]
-        v_forward, w = float(r.velocity[0]), float(r.velocity[1])
+        v_forward, w = r.forward_speed, r.yaw_rate
         rim = r.wheel_speed * r.description.wheel_radius * \
             (1.0 + np.asarray(self.physics.wheel_radius_errors))
         half = 0.5 * r.description.wheel_separation
         v_axle = v_forward - w * float(r.description.axle[1])  # forward speed at the axle
         ground_speed = np.array([v_axle + w * half, v_axle - w * half])
-        return GroundTruth(self.time, r.pose.copy(), r.velocity.copy(), rim - ground_speed,
-                           self.world.in_oil(float(r.pose[0]), float(r.pose[1])))
-
-    def add_bystander(self, position: ArrayLike) -> int:
-        """A person standing at ``position`` [m] who moves only when a scenario says so
-        (:meth:`move_person`): someone who steps into a robot's way and waits there. Returns
-        their index among :meth:`people_positions`."""
-        x, y = (float(v) for v in np.asarray(position, dtype=float).reshape(2))
-        if not (math.isfinite(x) and math.isfinite(y)):
-            raise ValueError(f"a bystander needs a finite (x, y) position; got {position!r}")
-        body, ground = self._person_body(x, y)
-        self.people.append(_Person(body, ground, np.array([[x, y]]), 0, 1, 0.0, scripted=True))
-        return len(self.people) - 1
-
-    def move_person(self, index: int, velocity: ArrayLike) -> None:
-        """Set a bystander's walking velocity [m/s] (at most walking speed) until told
-        otherwise."""
-        person = self.people[index]
-        if not person.scripted:
-            raise ValueError(f"person {index} walks by the simulator's rules; only a "
-                             f"bystander (add_bystander) is moved by a scenario")
-        vx, vy = (float(v) for v in np.asarray(velocity, dtype=float).reshape(2))
-        person.ground.velocity = _at_most_walking_speed(vx, vy)
+        return GroundTruth(self.time, r.pose, r.velocity, rim - ground_speed,
+                           self.world.in_oil(r.x, r.y))
 
     def people_positions(self) -> FloatArray:
         """(P, 2) positions of the pedestrians [m] (ground truth)."""

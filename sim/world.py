@@ -185,19 +185,25 @@ def _free_distance(segments: FloatArray, px: FloatArray, py: FloatArray, dx: flo
                    reach: float) -> FloatArray:  # pragma: no cover - compiled by numba
     out = np.empty(px.shape[0])
     for i in range(px.shape[0]):
-        best = np.inf
-        for j in range(segments.shape[0]):
-            ex, ey = segments[j, 2] - segments[j, 0], segments[j, 3] - segments[j, 1]
-            denom = dx * ey - dy * ex
-            if not abs(denom) > 1e-12:
-                continue
-            wx, wy = segments[j, 0] - px[i], segments[j, 1] - py[i]
-            t = (wx * ey - wy * ex) / denom              # along the ray
-            u = (wx * dy - wy * dx) / denom              # along the segment
-            if t >= 0.0 and u >= 0.0 and u <= 1.0 and t < best:
-                best = t
-        out[i] = min(best, reach)
+        out[i] = _free_distance_one(segments, px[i], py[i], dx, dy, reach)
     return out
+
+
+@njit(cache=True)
+def _free_distance_one(segments: FloatArray, px: float, py: float, dx: float, dy: float,
+                       reach: float) -> float:  # pragma: no cover - compiled by numba
+    best = np.inf
+    for j in range(segments.shape[0]):
+        ex, ey = segments[j, 2] - segments[j, 0], segments[j, 3] - segments[j, 1]
+        denom = dx * ey - dy * ex
+        if not abs(denom) > 1e-12:
+            continue
+        wx, wy = segments[j, 0] - px, segments[j, 1] - py
+        t = (wx * ey - wy * ex) / denom              # along the ray
+        u = (wx * dy - wy * dx) / denom              # along the segment
+        if t >= 0.0 and u >= 0.0 and u <= 1.0 and t < best:
+            best = t
+    return min(best, reach)
 
 
 def along_walls(segments: FloatArray, x: float, y: float, vx: float, vy: float,

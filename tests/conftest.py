@@ -1,4 +1,5 @@
-"""Shared fixtures: where ../shared/data is, and a marker for tests that need it."""
+"""Shared fixtures: where ../shared/data is, and a marker for tests that need it; and
+hypothesis set up to judge examples, never the machine's speed."""
 
 from __future__ import annotations
 
@@ -7,6 +8,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, settings
+
+# hypothesis fails an example slower than 200 ms and a strategy slow to generate data: on a
+# busy machine both happen to correct code. Every property test here runs without either
+# check (its own @settings may still ask for them).
+settings.register_profile("kit", deadline=None,
+                          suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("kit")
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = ROOT.parent / "shared" / "data"

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import pickle
 import re
 import shutil
 import signal
@@ -96,12 +97,20 @@ def test_a_class_of_100_grades_correctly_and_resumes_after_an_interruption(tmp_p
 
 
 def test_dask_cluster_grades_like_local_jobs(tmp_path, solved):
+    """One submission of each kind (a solution, an untouched lab, swapped wheels), graded by
+    two local jobs and by a two-worker Dask cluster: the same totals. The workers are threads
+    of this process (worker processes took 20-30 s to start on a busy machine, more than
+    the grading); what crosses to a remote worker is plain data and a function pickled by
+    reference, checked here."""
     distributed = pytest.importorskip("distributed")
-    make_class(tmp_path / "class", 6, solved)
+    from grader import gradebook
+
+    assert pickle.loads(pickle.dumps(gradebook._grade_remote)) is gradebook._grade_remote
+    make_class(tmp_path / "class", 3, solved)
     paths = sorted((tmp_path / "class").glob("*.ipynb"))
     spec = load_lab("lab01")
     local = grade_class(paths, spec, tmp_path / "a.csv", tmp_path / "a.json", jobs=2)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
         remote = grade_class(paths, spec, tmp_path / "b.csv", tmp_path / "b.json",
                              dask_address=cluster.scheduler_address)
@@ -110,8 +119,7 @@ def test_dask_cluster_grades_like_local_jobs(tmp_path, solved):
     swapped = [c for c in local[2].exercises[fk.id].cases]
     lost = fk.points * sum(not c.passed for c in swapped) / len(swapped)
     assert [r.total for r in remote] == [r.total for r in local]
-    assert [r.total for r in local] == pytest.approx([full, 0.0, full - lost, full, 0.0,
-                                                      full - lost], rel=1e-12)
+    assert [r.total for r in local] == pytest.approx([full, 0.0, full - lost], rel=1e-12)
     assert 0 < lost < fk.points
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+
 import pytest
 
 from kit.bag import read_bag
@@ -26,3 +28,24 @@ def test_the_demo_maps_the_office_then_navigates_it_and_writes_its_files(tmp_pat
     assert {"/map", "/scan", "/odom", "/tf", "/tf_static", "/plan", "/cmd_vel", "/clock",
             "/amcl_pose", "/particlecloud", "/local_plan", "/global_costmap/costmap",
             "/local_costmap/costmap", "/robot_description"} <= topics
+
+
+class Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize(("terminal", "quiet", "shown"),
+                         [(True, False, True), (True, True, False), (False, False, False)])
+def test_the_demos_bars_show_on_a_terminal_unless_quiet_whatever_kit_fast_says(
+        monkeypatch, terminal, quiet, shown):
+    """make demo sets KIT_FAST=1 (it shortens notebooks); its own stages still show bars,
+    as the kit's commands do: off with --quiet or away from a terminal."""
+    monkeypatch.setenv("KIT_FAST", "1")
+    stream = Terminal() if terminal else io.StringIO()
+    monkeypatch.setattr("sys.stderr", stream)
+    with navdemo._bar("2. navigating", 10, "s simulated", quiet) as bar:
+        assert bar.disable is not shown
+        bar.update(4)
+        bar.refresh()
+    assert ("2. navigating:  40%" in stream.getvalue()) is shown

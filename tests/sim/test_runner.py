@@ -14,6 +14,7 @@ from sim import Simulation
 from sim.runner import (
     FusionNode,
     Node,
+    ProgressNode,
     Runner,
     ScriptedCommands,
     WheelOdometryNode,
@@ -195,3 +196,21 @@ def test_description_accessor_and_initial_poses():
         FusionFilter({"odom0": ODOM0}, initial_pose=np.zeros((2, 3)))
     with pytest.raises(ValueError, match="one pose"):
         odometry.WheelOdometry(0.001, 0.3, initial_pose=np.zeros((2, 3)))
+
+
+class CountingBar:
+    def __init__(self) -> None:
+        self.n = 0.0
+
+    def update(self, n: float) -> None:
+        self.n += n
+
+
+def test_a_progress_node_moves_its_bar_by_the_simulated_seconds_of_each_run():
+    bar = CountingBar()
+    sim = Simulation(world="square", robot="uiabot", seed=1, sensors=False)
+    runner = Runner(sim, [ProgressNode(bar)])
+    runner.run(3.0)
+    assert bar.n == pytest.approx(3.0)        # twice a simulated second, up to the end
+    runner.run(1.0)                            # the bar goes on with the next run
+    assert bar.n == pytest.approx(4.0)
