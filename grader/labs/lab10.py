@@ -9,12 +9,11 @@ the kit's extra sample at ω = 0).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from grader.compare import matches
+from grader.labs._hidden import until_each_shows
 from grader.spec import Case, Diagnostic, Exercise, LabSpec
 from kit import geometry
 from kit import navigation as nav
@@ -26,20 +25,6 @@ _BLOCKED = (
 )
 
 
-
-
-def _until_each_shows(rng: np.random.Generator, draw: Callable[[np.random.Generator], list[Case]],
-                      reference: Callable[..., Any], mistakes: Sequence[Callable[..., Any]],
-                      tries: int = 200) -> list[Case]:
-    """Cases from ``draw`` (drawn again while needed) among which each of ``mistakes`` — the
-    spec's own models of the exercise's classic mistakes — gives a wrong output at least
-    once: whether a mistake costs points must not depend on the student's draw."""
-    for _ in range(tries):
-        cases = draw(rng)
-        if all(any(not matches(reference(*c.args), mistake(*c.args), 1e-9, 1e-12)
-                   for c in cases) for mistake in mistakes):
-            return cases
-    raise RuntimeError(f"no {tries} draws of hidden cases tell every mistake apart")
 
 
 # ---------------------------------------------------------------- pure pursuit
@@ -90,8 +75,8 @@ def _carrot_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _carrots(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _carrot_draw, _curvature,
-                             [d.wrong for d in _PURSUIT_MISTAKES])
+    return until_each_shows(rng, _carrot_draw, _curvature,
+                            [d.wrong for d in _PURSUIT_MISTAKES], rtol=1e-9, atol=1e-12)
 
 
 _PURSUIT_MISTAKES = (
@@ -228,7 +213,8 @@ def _speed_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _speeds(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _speed_draw, _regulated, [d.wrong for d in _RPP_MISTAKES])
+    return until_each_shows(rng, _speed_draw, _regulated, [d.wrong for d in _RPP_MISTAKES],
+                            rtol=1e-9, atol=1e-12)
 
 
 _RPP_MISTAKES = (
@@ -334,7 +320,8 @@ def _window_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _windows(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _window_draw, _window, [d.wrong for d in _WINDOW_MISTAKES])
+    return until_each_shows(rng, _window_draw, _window, [d.wrong for d in _WINDOW_MISTAKES],
+                            rtol=1e-9, atol=1e-12)
 
 
 _WINDOW_MISTAKES = (
@@ -416,7 +403,8 @@ def _rollout_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _rollouts(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _rollout_draw, _rollout, [d.wrong for d in _ROLLOUT_MISTAKES])
+    return until_each_shows(rng, _rollout_draw, _rollout, [d.wrong for d in _ROLLOUT_MISTAKES],
+                            rtol=1e-9, atol=1e-12)
 
 
 _ROLLOUT_MISTAKES = (
@@ -542,7 +530,7 @@ def _goal_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _goals(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _goal_draw, _reached, _GOAL_SLIPS)
+    return until_each_shows(rng, _goal_draw, _reached, _GOAL_SLIPS, rtol=1e-9, atol=1e-12)
 
 
 _GOAL_MISTAKES = (
