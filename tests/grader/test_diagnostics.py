@@ -57,9 +57,9 @@ def _A_B(r, b):
     return A, B
 
 
-def _fk(phi, r, b, sign=1.0):
+def _fk(phi, r, b, sign=1.0, mean=True):
     phi = np.asarray(phi, float)
-    return np.stack([r * (phi[..., 0] + phi[..., 1]) / 2, 0 * phi[..., 0],
+    return np.stack([r * (phi[..., 0] + phi[..., 1]) / (2 if mean else 1), 0 * phi[..., 0],
                      sign * r * (phi[..., 0] - phi[..., 1]) / (2 * b)], axis=-1)
 
 
@@ -70,11 +70,13 @@ def _ik(xi, r, b):
 
 
 def _odom(m, r, sep, i, s, *, gear=True, two_pi=True, sign=True, swap=False, deg=False,
-          halve=True, paper=False):
+          halve=True, paper=False, gear_times=False):
     m = np.asarray(m, float)
     right, left = (m[..., 1], m[..., 0]) if swap else (m[..., 0], m[..., 1])
     left = left * (s if sign else 1.0)
     k = (2 * np.pi if two_pi else 1.0) / (i if gear else 1.0)
+    if gear_times:
+        k = 2 * np.pi * i
     pr, pl = right * k, left * k
     b = sep / 2 if halve else sep
     v, w = r * (pr + pl) / 2, r * (pr - pl) / (2 * b)
@@ -83,7 +85,8 @@ def _odom(m, r, sep, i, s, *, gear=True, two_pi=True, sign=True, swap=False, deg
     return np.stack([v, np.degrees(w) if deg else w], axis=-1)
 
 
-def _twist(v, w, r, sep, i, s, *, sign=True, swap=False, gear=True, turns=True, forward=False):
+def _twist(v, w, r, sep, i, s, *, sign=True, swap=False, gear=True, turns=True, forward=False,
+           gear_divides=False):
     b = sep / 2
     if forward:
         wheels = np.array([r / 2 * v + r / (2 * b) * w, r / 2 * v - r / (2 * b) * w])
@@ -92,6 +95,8 @@ def _twist(v, w, r, sep, i, s, *, sign=True, swap=False, gear=True, turns=True, 
     if swap:
         wheels = wheels[::-1]
     wheels = wheels * (i if gear else 1.0) / (2 * np.pi if turns else 1.0)
+    if gear_divides:
+        wheels = wheels / i / i
     return wheels * np.array([1.0, s if sign else 1.0])
 
 
@@ -107,6 +112,9 @@ LAB01 = {
         ("the left wheel's rolling row first",
          lambda r, sep: (_A_B(r, sep / 2)[0][[1, 0, 2, 3]], _A_B(r, sep / 2)[1])),
         ("A and B transposed", lambda r, sep: tuple(m.T for m in _A_B(r, sep / 2))),
+        ("the no-slide rows as +ẏ = 0",
+         lambda r, sep: (np.array([[1.0, 0, sep / 2], [1, 0, -sep / 2], [0, 1, 0], [0, 1, 0]]),
+                         _A_B(r, sep / 2)[1])),
     ],
     "forward_kinematics": [
         ("swapped wheels or the paper's turn sign (erratum 5)",
@@ -119,6 +127,9 @@ LAB01 = {
         ("the inverse kinematics' matrix B⁺A",
          lambda phi, r, sep: np.asarray(phi, float) @ (np.linalg.pinv(_A_B(r, sep / 2)[1])
                                                        @ _A_B(r, sep / 2)[0])),
+        ("ẋ as the sum of the rim speeds", lambda phi, r, sep: _fk(phi, r, sep / 2, mean=False)),
+        ("θ̇ over b instead of over l = 2b",          # r (φ̇_r − φ̇_l) / b with b = l / 2
+         lambda phi, r, sep: _fk(phi, r, sep / 4)),
     ],
     "inverse_kinematics": [
         ("swapped wheels", lambda xi, r, sep: _ik(xi, r, sep / 2)[..., ::-1]),
@@ -127,6 +138,7 @@ LAB01 = {
                                                      @ _A_B(r, sep / 2)[1])),
         ("b = the whole wheel separation", lambda xi, r, sep: _ik(xi, r, sep)),
         ("turns per second", lambda xi, r, sep: _ik(xi, r, sep / 2) / (2 * np.pi)),
+        ("the rim speed, not the wheel's", lambda xi, r, sep: _ik(xi, 1.0, sep / 2)),
     ],
     "odometry_twist": [
         ("the paper's odometry equations (erratum 1)", lambda *a: _odom(*a, paper=True)),
@@ -136,6 +148,7 @@ LAB01 = {
         ("the motors read (left, right)", lambda *a: _odom(*a, swap=True)),
         ("ω in degrees per second", lambda *a: _odom(*a, deg=True)),
         ("b = the whole wheel separation", lambda *a: _odom(*a, halve=False)),
+        ("the gear ratio multiplied", lambda *a: _odom(*a, gear_times=True)),
     ],
     "twist_to_motor_speeds": [
         ("the forward kinematics (erratum 6)", lambda *a: _twist(*a, forward=True)),
@@ -143,6 +156,7 @@ LAB01 = {
         ("swapped wheels", lambda *a: _twist(*a, swap=True)),
         ("forgetting the gearbox", lambda *a: _twist(*a, gear=False)),
         ("rad/s instead of turns/s", lambda *a: _twist(*a, turns=False)),
+        ("the gear ratio divided", lambda *a: _twist(*a, gear_divides=True)),
     ],
     "igv_wheel_rpm": [
         ("(u_L, u_R): the paper's order, or ω's sign flipped",
@@ -150,11 +164,18 @@ LAB01 = {
         ("rad/s instead of RPM",
          lambda v, w: ((4000 * v + 1440 * w) / 67 * np.pi / 30,
                        (4000 * v - 1440 * w) / 67 * np.pi / 30)),
+        ("revolutions per second, not per minute",
+         lambda v, w: ((v + 0.36 * w) / 1.005, (v - 0.36 * w) / 1.005)),
+        ("ω times the whole separation",
+         lambda v, w: ((4000 * v + 2880 * w) / 67, (4000 * v - 2880 * w) / 67)),
     ],
     "rpm_to_drive_units": [
         ("truncation", lambda rpm, cpr=400: int(rpm * cpr / 60 * 2**17 / 20000)),
         ("counts/s without the drive's scaling", lambda rpm, cpr=400: round(rpm * cpr / 60)),
         ("the paper's rounded factor 43.7", lambda rpm, cpr=400: round(rpm * 43.7)),
+        ("int(x + 0.5)", lambda rpm, cpr=400: int(rpm * cpr / 60 * 2**17 / 20000 + 0.5)),
+        ("400 counts whatever counts_per_rev says",
+         lambda rpm, cpr=400: round(rpm * 400 / 60 * 2**17 / 20000)),
     ],
     "turning_radius": [
         ("ω / v", lambda v, w: w / v if v else math.inf),
@@ -163,26 +184,122 @@ LAB01 = {
     ],
     "saturate_wheel_speeds": [
         ("clipping each wheel", lambda phi, m: np.clip(np.asarray(phi, float), -m, m)),
+        ("the fastest wheel found without abs()", lambda phi, m: _saturate(phi, m, peak=np.max)),
+        ("scaling speeds that already fit", lambda phi, m: _saturate(phi, m, always=True)),
+    ],
+}
+
+
+def _saturate(phi, limit, peak=lambda p: np.max(np.abs(p)), always=False):
+    phi = np.asarray(phi, float)
+    fastest = peak(phi)
+    return phi * (limit / fastest) if always or fastest > limit else phi
+
+
+def _fk_closed_form(phi, r, sep):
+    phi = np.asarray(phi, float)
+    right, left = phi[..., 0], phi[..., 1]
+    return np.stack([r * (right + left) / 2, np.zeros_like(right), r * (right - left) / sep],
+                    axis=-1)
+
+
+def _fk_lstsq(phi, r, sep):
+    A, B = _A_B(r, sep / 2)
+    rhs = B @ np.asarray(phi, float).T                 # (4,) or (4, N)
+    return np.linalg.lstsq(A, rhs, rcond=None)[0].T
+
+
+def _ik_lstsq(xi, r, sep):
+    A, B = _A_B(r, sep / 2)
+    return np.linalg.lstsq(B, A @ np.asarray(xi, float).T, rcond=None)[0].T
+
+
+def _odom_matrix(m, r, sep, i, s):
+    wheels = np.asarray(m, float) * np.array([1.0, s]) * 2 * np.pi / i
+    J = np.array([[r / 2, r / 2], [r / sep, -r / sep]])
+    return wheels @ J.T
+
+
+def _constraints_filled(r, sep):
+    A, B = np.zeros((4, 3)), np.zeros((4, 2))
+    A[0, 0] = A[1, 0] = 1.0
+    A[0, 2], A[1, 2] = sep / 2, -sep / 2
+    A[2, 1] = A[3, 1] = -1.0
+    B[0, 0] = B[1, 1] = r
+    return A, B
+
+
+def _units_exact(rpm, counts_per_rev=400):
+    from fractions import Fraction
+
+    return round(Fraction(rpm) * counts_per_rev * 2**17 / (60 * 20000))
+
+
+HONEST["lab01"] = {
+    "constraint_matrices": [
+        ("np.zeros, then the entries", _constraints_filled),
+        ("a list [A, B] of nested lists",
+         lambda r, sep: [m.tolist() for m in _constraints_filled(r, sep)]),
+    ],
+    "forward_kinematics": [
+        ("the closed form, no pseudo-inverse", _fk_closed_form),
+        ("least squares (np.linalg.lstsq)", _fk_lstsq),
+    ],
+    "inverse_kinematics": [
+        ("the closed form", lambda xi, r, sep: _ik(xi, r, sep / 2)),
+        ("least squares (np.linalg.lstsq)", _ik_lstsq),
+    ],
+    "odometry_twist": [
+        ("a 2 × 2 matrix on the wheel speeds", _odom_matrix),
+    ],
+    "twist_to_motor_speeds": [
+        ("wheel turns per second first",
+         lambda v, w, r, sep, i, s: np.array([(v + w * sep / 2) / (2 * np.pi * r) * i,
+                                              s * (v - w * sep / 2) / (2 * np.pi * r) * i])),
+    ],
+    "igv_wheel_rpm": [
+        ("60 (v ± ω l/2) / 1.005 m per turn",
+         lambda v, w: (60 * (v + w * 0.72 / 2) / 1.005, 60 * (v - w * 0.72 / 2) / 1.005)),
+    ],
+    "rpm_to_drive_units": [
+        ("math.floor(x + 0.5)",
+         lambda rpm, cpr=400: math.floor(rpm * cpr / 60 * 2**17 / 20000 + 0.5)),
+        ("int(np.rint(x))", lambda rpm, cpr=400: int(np.rint(rpm * cpr * 2**17 / 1_200_000))),
+        ("exact fractions", _units_exact),
+    ],
+    "turning_radius": [
+        ("math.copysign(math.inf, v)",
+         lambda v, w: v / w if w else math.copysign(math.inf, v)),
+    ],
+    "saturate_wheel_speeds": [
+        ("divided by max(1, fastest / limit)",
+         lambda phi, m: np.asarray(phi, float) / max(1.0, np.max(np.abs(phi)) / m)),
+        ("a factor min(1, limit / fastest)",
+         lambda phi, m: np.asarray(phi, float) * min(1.0, m / float(np.max(np.abs(phi))))),
     ],
 }
 
 # ------------------------------------------------------------------ lab 02
 
 
-def _eddie(pose, dr, dl, sep, *, paper=False, wrap=True, deg=False):
+def _eddie(pose, dr, dl, sep, *, paper=False, wrap=True, deg=False, turn_first=True):
     x, y, th = (float(v) for v in pose)
+    ds = (dr + dl) / 2
+    if not turn_first:
+        x, y = x + ds * math.cos(th), y + ds * math.sin(th)
     d = ((dl - dr) if paper else (dr - dl)) / sep
     th = th + (math.degrees(d) if deg else d)
     if wrap:
         th = (th + math.pi) % (2 * math.pi) - math.pi
-    ds = (dr + dl) / 2
+    if not turn_first:
+        return np.array([x, y, th])
     return np.array([x + ds * math.cos(th), y + ds * math.sin(th), th])
 
 
-def _arc(pose, dr, dl, sep, *, chord=True, mean_heading=True, wrap=True):
+def _arc(pose, dr, dl, sep, *, chord=True, mean_heading=True, wrap=True, sinc_pi=True):
     x, y, th = (float(v) for v in pose)
     ds, dth = (dr + dl) / 2, (dr - dl) / sep
-    length = ds * np.sinc(dth / (2 * np.pi)) if chord else ds
+    length = ds * np.sinc(dth / (2 * np.pi) if sinc_pi else dth / 2) if chord else ds
     heading = th + dth / 2 if mean_heading else th
     new = th + dth
     if wrap:
@@ -194,6 +311,15 @@ def _path(d_right, d_left, sep, step, accumulate=True):
     poses = [np.zeros(3)]
     for dr, dl in zip(d_right, d_left, strict=True):
         poses.append(step(poses[-1] if accumulate else np.zeros(3), dr, dl, sep))
+    return np.array(poses)
+
+
+def _path_in_place(d_right, d_left, sep):
+    pose = np.zeros(3)
+    poses = [pose]
+    for dr, dl in zip(d_right, d_left, strict=True):
+        pose[:] = _arc(pose, dr, dl, sep)
+        poses.append(pose)
     return np.array(poses)
 
 
@@ -210,21 +336,27 @@ LAB02 = {
         ("the formula as printed, c_m = D / (n C_e)", lambda d, n, c: d / (n * c)),
         ("the radius in place of the diameter", lambda d, n, c: math.pi * (d / 2) / (n * c)),
         ("forgetting the gear ratio", lambda d, n, c: math.pi * d / c),
+        ("2π D for the circumference", lambda d, n, c: 2 * math.pi * d / (n * c)),
+        ("the gear ratio multiplied", lambda d, n, c: math.pi * d * n / c),
     ],
     "tick_delta": [
         ("a plain difference", lambda p, c, bits: c - p),
         ("the increment modulo 2**bits, never negative", lambda p, c, bits: (c - p) % 2**bits),
+        ("16 bits whatever counter_bits says",
+         lambda p, c, bits: (c - p) % 65536 - (65536 if (c - p) % 65536 >= 32768 else 0)),
     ],
     "eddie_odometry_step": [
         ("the paper's heading update (erratum 7)", lambda *a: _eddie(*a, paper=True)),
         ("an unwrapped heading", lambda *a: _eddie(*a, wrap=False)),
         ("the heading change in degrees", lambda *a: _eddie(*a, wrap=False, deg=True)),
+        ("moving along the old heading", lambda *a: _eddie(*a, turn_first=False)),
     ],
     "exact_arc_step": [
         ("Euler integration", lambda *a: _arc(*a, chord=False, mean_heading=False)),
         ("the mean heading without the chord factor", lambda *a: _arc(*a, chord=False)),
         ("an unwrapped heading", lambda *a: _arc(*a, wrap=False)),
         ("the wheels swapped", lambda pose, dr, dl, sep: _arc(pose, dl, dr, sep)),
+        ("np.sinc(Δθ / 2)", lambda *a: _arc(*a, sinc_pi=False)),
     ],
     "integrate_path": [
         ("the paper's pose update (erratum 2)",
@@ -232,6 +364,8 @@ LAB02 = {
         ("Euler steps in place of the arc",
          lambda dr, dl, sep: _path(dr, dl, sep, lambda *a: _arc(*a, chord=False,
                                                                   mean_heading=False))),
+        ("the start pose left out", lambda dr, dl, sep: _path(dr, dl, sep, _arc)[1:]),
+        ("one array appended again and again", _path_in_place),
     ],
     "yaw_to_quaternion": [
         ("the full angle", lambda t: np.array([0.0, 0.0, math.sin(t), math.cos(t)])),
@@ -242,6 +376,108 @@ LAB02 = {
     "make_odom_transform": [
         ("parent and child swapped", lambda pose, stamp: _odom_tf(pose, stamp, "base_link",
                                                                   "odom")),
+        ("frame ids with a leading slash",
+         lambda pose, stamp: _odom_tf(pose, stamp, "/odom", "/base_link")),
+    ],
+}
+
+
+def _ticks_corrected(p, c, bits):
+    d, m = c - p, 2**bits
+    if d >= m // 2:
+        d -= m
+    elif d < -(m // 2):
+        d += m
+    return d
+
+
+def _arc_formula(pose, dr, dl, sep):
+    """R (sin(θ + Δθ) − sin θ), −R (cos(θ + Δθ) − cos θ), and a straight line when Δθ = 0."""
+    x, y, th = (float(v) for v in pose)
+    ds, dth = (dr + dl) / 2, (dr - dl) / sep
+    if dth == 0:
+        return np.array([x + ds * math.cos(th), y + ds * math.sin(th), _wrap(th)])
+    R = ds / dth
+    return np.array([x + R * (math.sin(th + dth) - math.sin(th)),
+                     y - R * (math.cos(th + dth) - math.cos(th)), _wrap(th + dth)])
+
+
+def _arc_sin_over_h(pose, dr, dl, sep):
+    x, y, th = (float(v) for v in pose)
+    ds, dth = (dr + dl) / 2, (dr - dl) / sep
+    h = dth / 2
+    chord = ds * (math.sin(h) / h if h else 1.0)
+    return np.array([x + chord * math.cos(th + h), y + chord * math.sin(th + h),
+                     math.atan2(math.sin(th + dth), math.cos(th + dth))])
+
+
+def _path_preallocated(d_right, d_left, sep):
+    poses = np.zeros((len(d_right) + 1, 3))
+    for k, (dr, dl) in enumerate(zip(d_right, d_left, strict=True)):
+        poses[k + 1] = _arc_sin_over_h(poses[k], dr, dl, sep)
+    return poses
+
+
+def _path_accumulate(d_right, d_left, sep):
+    steps = itertools.accumulate(zip(d_right, d_left, strict=True),
+                                 lambda pose, d: _arc(pose, d[0], d[1], sep),
+                                 initial=np.zeros(3))
+    return np.array(list(steps))
+
+
+def _quat_scipy(theta):
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_euler("z", theta).as_quat()
+
+
+def _tf_keywords(pose, stamp):
+    x, y, th = (float(v) for v in pose)
+    return msgs.TransformStamped(
+        header=msgs.Header(stamp=msgs.Time(sec=stamp.sec, nanosec=stamp.nanosec),
+                           frame_id="odom"),
+        child_frame_id="base_link",
+        transform=msgs.Transform(translation=msgs.Vector3(x=x, y=y, z=0.0),
+                                 rotation=msgs.Quaternion(x=0.0, y=0.0, z=math.sin(th / 2),
+                                                          w=math.cos(th / 2))))
+
+
+HONEST["lab02"] = {
+    "conversion_factor": [
+        ("np.pi D / n / C_e", lambda d, n, c: np.pi * d / n / c),
+        ("math.tau × the radius", lambda d, n, c: math.tau * (d / 2) / (n * c)),
+    ],
+    "tick_delta": [
+        ("shifted by half the range",
+         lambda p, c, bits: (c - p + 2 ** (bits - 1)) % 2**bits - 2 ** (bits - 1)),
+        ("the plain difference corrected by ±2**bits", _ticks_corrected),
+    ],
+    "eddie_odometry_step": [
+        ("the heading wrapped with atan2(sin, cos)",
+         lambda pose, dr, dl, sep: _eddie(pose, dr, dl, sep, wrap=False)
+         * np.array([1.0, 1.0, 0.0])
+         + np.array([0.0, 0.0, math.atan2(math.sin(pose[2] + (dr - dl) / sep),
+                                          math.cos(pose[2] + (dr - dl) / sep))])),
+        ("the heading wrapped with math.remainder",
+         lambda pose, dr, dl, sep: np.array([*_eddie(pose, dr, dl, sep)[:2],
+                                             math.remainder(pose[2] + (dr - dl) / sep,
+                                                            2 * math.pi)])),
+    ],
+    "exact_arc_step": [
+        ("the arc formula, with a branch for Δθ = 0", _arc_formula),
+        ("sin(h) / h, with a branch for h = 0", _arc_sin_over_h),
+    ],
+    "integrate_path": [
+        ("a preallocated (N + 1, 3) array", _path_preallocated),
+        ("itertools.accumulate", _path_accumulate),
+    ],
+    "yaw_to_quaternion": [
+        ("scipy's Rotation.from_euler('z', θ).as_quat()", _quat_scipy),
+        ("a half-angle complex exponential",
+         lambda t: np.array([0.0, 0.0, np.exp(0.5j * t).imag, np.exp(0.5j * t).real])),
+    ],
+    "make_odom_transform": [
+        ("keyword arguments throughout", _tf_keywords),
     ],
 }
 
@@ -1178,6 +1414,14 @@ CATALOGUE = {"lab01": LAB01, "lab02": LAB02, "lab03": LAB03, "lab04": LAB04, "la
              "lab11": {"make_controller": []}}
 COINCIDENT: dict[tuple[str, str], set[str]] = {
     # mistakes that give the same numbers on some cases: the check names both there
+    # Lab 01: backwards, int(x + 0.5) truncates like int(x) wherever x's fraction is ≥ .5;
+    # the paper's factor ignores counts_per_rev too, and often rounds to the same unit
+    ("rpm_to_drive_units", "truncation"): {"int(x + 0.5)"},
+    ("rpm_to_drive_units", "int(x + 0.5)"): {"truncation"},
+    ("rpm_to_drive_units", "the paper's rounded factor 43.7"):
+        {"400 counts whatever counts_per_rev says"},
+    ("rpm_to_drive_units", "400 counts whatever counts_per_rev says"):
+        {"the paper's rounded factor 43.7"},
     ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
     ("tick_delta", "the increment modulo 2**bits, never negative"): {"a plain difference"},
     ("angle_residual", "an unwrapped difference"): {"a difference wrapped to [0, 2π)"},
