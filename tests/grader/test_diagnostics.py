@@ -484,7 +484,7 @@ HONEST["lab02"] = {
 # ------------------------------------------------------------------ lab 03
 
 
-def _crc(data, init=0, reflect=False, swap=False):
+def _crc(data, init=0, reflect=False, swap=False, mask=0xFFFF, shift=8):
     crc = init
     for byte in data:
         if reflect:
@@ -492,30 +492,30 @@ def _crc(data, init=0, reflect=False, swap=False):
             for _ in range(8):
                 crc = (crc >> 1) ^ 0x8408 if crc & 1 else crc >> 1
         else:
-            crc ^= byte << 8
+            crc ^= byte << shift
             for _ in range(8):
-                crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+                crc = ((crc << 1) ^ 0x1021) & mask if crc & 0x8000 else (crc << 1) & mask
     return ((crc & 0xFF) << 8) | (crc >> 8) if swap else crc
 
 
 def _frame(address, offset, rpm, sequence=0, *, crc_order="big", data_order="little",
-           factor=None, crc_from=0):
+           factor=None, crc_from=0, shift=2, data_crc_of_all=False):
     units = round(rpm * 43.7) if factor else round(rpm * 400 / 60 * 2**17 / 20000)
-    header = bytes([0xA5, address, 2 | (sequence << 2), 0x45, offset, 2])
+    header = bytes([0xA5, address, 2 | (sequence << shift), 0x45, offset, 2])
     data = units.to_bytes(4, data_order, signed=True)
-    return (header + _crc(header[crc_from:]).to_bytes(2, crc_order) + data +
-            _crc(data).to_bytes(2, crc_order))
+    frame = header + _crc(header[crc_from:]).to_bytes(2, crc_order) + data
+    return frame + _crc(frame if data_crc_of_all else data).to_bytes(2, crc_order)
 
 
-def _compass(line, yaw_of):
+def _compass(line, yaw_of, checked=True, from_dollar=False):
     m = re.fullmatch(r"\$([^*$]*)\*([0-9A-Fa-f]{2})", line.strip())
     if not m:
         return None
     body, given = m.groups()
     check = 0
-    for ch in body:
+    for ch in ("$" if from_dollar else "") + body:
         check ^= ord(ch)
-    if check != int(given, 16) or not body.startswith("C"):
+    if (checked and check != int(given, 16)) or not body.startswith("C"):
         return None
     f = dict(re.findall(r"(Mx|My|Mz|Ax|Ay|Az|[CPRTD])(-?\d+(?:\.\d+)?)", body))
     if not all(k in f for k in "CPR"):
@@ -528,15 +528,15 @@ def _wrap(a):
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-def _nodes(data, step_on_miss=1, raw=False):
+def _nodes(data, step_on_miss=1, raw=False, check_bit=False, quality_shift=2):
     rows, i = [], 0
     while i + 5 <= len(data):
         b0, b1 = data[i], data[i + 1]
         if ((b0 ^ (b0 >> 1)) & 1) and (b1 & 1):
-            angle = (b1 >> 1) | (data[i + 2] << 7)
+            angle = (b1 | (data[i + 2] << 8)) if check_bit else (b1 >> 1) | (data[i + 2] << 7)
             dist = data[i + 3] | (data[i + 4] << 8)
-            rows.append([b0 & 1, b0 >> 2, angle if raw else angle / 64, dist if raw else
-                         dist / 4])
+            rows.append([b0 & 1, b0 >> quality_shift, angle if raw else angle / 64,
+                         dist if raw else dist / 4])
             i += 5
         else:
             i += step_on_miss
@@ -549,12 +549,13 @@ PAPER_STATES = {0: "UNDEFINED", 1: "IDLE", 2: "STARTUP_SEQUENCE",
                 8: "CLOSED_LOOP_CONTROL", 9: "LOCKIN_SPIN", 10: "ENCODER_DIR_FIND"}
 
 
-def _motors(v, w, *, mirror=True, turns=True, gear=True, clip_each=False):
-    r, b, limit = 0.05, 0.1805, 20.0  # hardware/robots/uiabot.toml
+def _motors(v, w, *, mirror=True, turns=True, gear=True, clip_each=False, limited=True,
+            b=0.1805):
+    r, limit = 0.05, 20.0  # hardware/robots/uiabot.toml
     wheels = np.array([v + w * b, v - w * b]) / r
     if clip_each:
         wheels = np.clip(wheels, -limit, limit)
-    elif np.max(np.abs(wheels)) > limit:
+    elif limited and np.max(np.abs(wheels)) > limit:
         wheels = wheels * limit / np.max(np.abs(wheels))
     wheels = wheels * (20 if gear else 1) / (2 * math.pi if turns else 1)
     return wheels * np.array([1.0, -1.0 if mirror else 1.0])
@@ -565,12 +566,15 @@ LAB03 = {
         ("CRC-16/CCITT-FALSE (initial value 0xFFFF)", lambda d: _crc(d, init=0xFFFF)),
         ("the two result bytes swapped", lambda d: _crc(d, swap=True)),
         ("CRC-16/KERMIT (bits reflected)", lambda d: _crc(d, reflect=True)),
+        ("the CRC not kept to 16 bits", lambda d: _crc(d, mask=-1)),
+        ("each byte XORed into the low 8 bits", lambda d: _crc(d, shift=0)),
     ],
     "velocity_frame": [
         ("CRCs sent low byte first", lambda *a: _frame(*a, crc_order="little")),
         ("the velocity sent big-endian", lambda *a: _frame(*a, data_order="big")),
         ("RPM × 43.7", lambda *a: _frame(*a, factor=43.7)),
         ("header CRC without the A5", lambda *a: _frame(*a, crc_from=1)),
+        ("the sequence number not shifted", lambda *a: _frame(*a, shift=0)),
     ],
     "parse_compass": [
         ("the heading as yaw", lambda s: _compass(s, lambda h: _wrap(math.radians(h)))),
@@ -578,19 +582,140 @@ LAB03 = {
         ("the yaw in degrees",
          lambda s: _compass(s, lambda h: math.degrees(_wrap(math.pi / 2 - math.radians(h))))),
         ("an unwrapped yaw", lambda s: _compass(s, lambda h: math.pi / 2 - math.radians(h))),
+        ("the checksum not checked", lambda s: _compass(s, _yaw, checked=False)),
+        ("a valid sentence refused", lambda s: _compass(s, _yaw, from_dollar=True)),
     ],
     "decode_nodes": [
         ("whole 5-byte steps (no resynchronising)", lambda d: _nodes(d, step_on_miss=5)),
         ("raw q6 angle and q2 distance", lambda d: _nodes(d, raw=True)),
+        ("the check bit kept in the angle", lambda d: _nodes(d, check_bit=True)),
+        ("the quality not shifted", lambda d: _nodes(d, quality_shift=0)),
     ],
     "axis_state_name": [
         ("the paper's table for every firmware", lambda value, fw: PAPER_STATES.get(value)),
+        ("the new table for every firmware", lambda value, fw: NEW_STATES.get(value)),
     ],
     "uiabot_motor_speeds": [
         ("the left motor not mirrored", lambda v, w: _motors(v, w, mirror=False)),
         ("rad/s instead of turns/s", lambda v, w: _motors(v, w, turns=False)),
         ("wheel speed, not motor speed", lambda v, w: _motors(v, w, gear=False)),
         ("each wheel clipped on its own", lambda v, w: _motors(v, w, clip_each=True)),
+        ("no wheel limit", lambda v, w: _motors(v, w, limited=False)),
+        ("b = the whole wheel separation", lambda v, w: _motors(v, w, b=0.361)),
+    ],
+}
+
+
+def _yaw(heading_deg):
+    return _wrap(math.pi / 2 - math.radians(heading_deg))
+
+
+def _crc_table():
+    table = []
+    for top in range(256):
+        crc = top << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+        table.append(crc)
+    return table
+
+
+CRC_TABLE = _crc_table()
+
+
+def _crc_by_table(data):
+    crc = 0
+    for byte in data:
+        crc = ((crc << 8) & 0xFFFF) ^ CRC_TABLE[(crc >> 8) ^ byte]
+    return crc
+
+
+def _frame_struct(address, offset, rpm, sequence=0):
+    import binascii
+    import struct
+
+    header = struct.pack("<6B", 0xA5, address, 2 | sequence << 2, 0x45, offset, 2)
+    data = struct.pack("<i", round(rpm * 400 / 60 * 2**17 / 20000))
+    return b"".join([header, struct.pack(">H", binascii.crc_hqx(header, 0)), data,
+                     struct.pack(">H", binascii.crc_hqx(data, 0))])
+
+
+def _compass_split(line):
+    import functools
+    import operator
+
+    line = line.strip()
+    if not line.startswith("$") or line.count("*") != 1:
+        return None
+    body, given = line[1:].split("*")
+    if len(given) != 2 or any(c not in "0123456789abcdefABCDEF" for c in given):
+        return None
+    if functools.reduce(operator.xor, map(ord, body), 0) != int(given, 16):
+        return None
+    fields = {}
+    for key, value in re.findall(r"(Mx|My|Mz|Ax|Ay|Az|[A-Z])(-?[\d.]+)", body):
+        fields.setdefault(key, float(value))
+    if not body.startswith("C") or not {"C", "P", "R"} <= set(fields):
+        return None
+    h = math.radians(fields["C"])
+    return fields["C"], fields["P"], fields["R"], math.atan2(math.cos(h), math.sin(h))
+
+
+def _nodes_struct(data):
+    import struct
+
+    rows, i = [], 0
+    while i + 5 <= len(data):
+        b0, angle, distance = struct.unpack_from("<BHH", data, i)
+        if (b0 & 1) != ((b0 >> 1) & 1) and angle & 1:
+            rows.append([b0 & 1, b0 >> 2, (angle >> 1) / 64, distance / 4])
+            i += 5
+        else:
+            i += 1
+    return np.array(rows, dtype=float).reshape(-1, 4)
+
+
+NEW_STATES = {**{k: v for k, v in PAPER_STATES.items() if k != 5}, 11: "HOMING",
+              12: "ENCODER_HALL_POLARITY_CALIBRATION", 13: "ENCODER_HALL_PHASE_CALIBRATION"}
+
+
+def _state_by_version(value, firmware):
+    from packaging.version import Version
+
+    table = NEW_STATES if Version(firmware) >= Version("0.5.2") else PAPER_STATES
+    return table.get(value)
+
+
+HONEST["lab03"] = {
+    "crc16_xmodem": [
+        ("binascii.crc_hqx(data, 0)", lambda d: __import__("binascii").crc_hqx(d, 0)),
+        ("a 256-entry table", _crc_by_table),
+        ("masked once at the end", lambda d: _crc(d, mask=-1) & 0xFFFF),
+    ],
+    "velocity_frame": [
+        ("struct.pack and binascii.crc_hqx", _frame_struct),
+        # XMODEM over a block followed by its own CRC (high byte first) leaves 0, so the
+        # CRC of header, header CRC and data is the data's CRC
+        ("the data CRC over the whole frame so far",
+         lambda *a: _frame(*a, data_crc_of_all=True)),
+    ],
+    "parse_compass": [
+        ("str.split, functools.reduce and atan2", _compass_split),
+    ],
+    "decode_nodes": [
+        ("struct.unpack_from('<BHH')", _nodes_struct),
+    ],
+    "axis_state_name": [
+        ("packaging.version and two tables", _state_by_version),
+        ("tuples of ints and two tables",
+         lambda value, fw: (NEW_STATES if tuple(map(int, fw.split("."))) >= (0, 5, 2)
+                            else PAPER_STATES).get(value)),
+    ],
+    "uiabot_motor_speeds": [
+        ("a factor min(1, limit / fastest)",
+         lambda v, w: (lambda wheels: wheels * min(1.0, 20.0 / np.max(np.abs(wheels))) * 20
+                       / (2 * math.pi) * np.array([1.0, -1.0]))(
+             np.array([v + w * 0.1805, v - w * 0.1805]) / 0.05)),
     ],
 }
 
