@@ -722,13 +722,14 @@ HONEST["lab03"] = {
 # ------------------------------------------------------------------ lab 04
 
 
-def _tf(R, L, kt, ke, J, b, N, *, gear=True, reverse=False):
-    den = np.array([J * L, J * R + b * L, b * R + kt * ke])
-    return np.array([kt / (N if gear else 1.0)]), den[::-1] if reverse else den
+def _tf(R, L, kt, ke, J, b, N, *, gear=True, reverse=False, gear_times=False, emf=True):
+    den = np.array([J * L, J * R + b * L, b * R + (kt * ke if emf else 0.0)])
+    num = kt * N if gear_times else kt / (N if gear else 1.0)
+    return np.array([num]), den[::-1] if reverse else den
 
 
-def _pi(kp, ki, dt, integral, r, y, low, high, *, clamp=True, use_dt=True):
-    e = r - y
+def _pi(kp, ki, dt, integral, r, y, low, high, *, clamp=True, use_dt=True, error_sign=1.0):
+    e = error_sign * (r - y)
     new = integral + ki * e * (dt if use_dt else 1.0)
     raw = kp * e + new
     out = min(max(raw, low), high)
@@ -738,49 +739,113 @@ def _pi(kp, ki, dt, integral, r, y, low, high, *, clamp=True, use_dt=True):
     return out, new
 
 
-def _figures(t, y, setpoint, *, rise_from=0.1, rise_to=0.9, percent=100.0):
+def _figures(t, y, setpoint, *, rise_from=0.1, rise_to=0.9, percent=100.0, over_setpoint=False,
+             error_sign=1.0, interpolate=True):
     t, y = np.asarray(t, float), np.asarray(y, float)
     final = y[-1]
 
     def cross(level):
         i = int(np.argmax(y >= level))
-        if i == 0:
-            return t[0]
+        if i == 0 or not interpolate:
+            return t[i]
         return t[i - 1] + (level - y[i - 1]) * (t[i] - t[i - 1]) / (y[i] - y[i - 1])
 
     start = cross(rise_from * final) if rise_from else t[0]
     rise = (cross(rise_to * final) if rise_to < 1 else t[int(np.argmax(y >= final))]) - start
-    over = max(0.0, (y.max() - final) / final * percent)
+    reference = setpoint if over_setpoint else final
+    over = max(0.0, (y.max() - reference) / reference * percent)
     outside = np.flatnonzero(np.abs(y - final) > 0.02 * final)
     settle = 0.0 if len(outside) == 0 else (t[outside[-1] + 1] - t[0] if outside[-1] + 1 < len(t)
                                             else t[-1] - t[0])
-    return rise, over, settle, setpoint - final
+    return rise, over, settle, error_sign * (setpoint - final)
 
 
 LAB04 = {
     "transfer_coefficients": [
         ("forgetting the gearbox", lambda *a: _tf(*a, gear=False)),
         ("the denominator lowest power first", lambda *a: _tf(*a, reverse=True)),
+        ("the gear ratio multiplied", lambda *a: _tf(*a, gear_times=True)),
+        ("the back-EMF forgotten", lambda *a: _tf(*a, emf=False)),
     ],
     "pi_step": [
         ("no anti-windup", lambda *a: _pi(*a, clamp=False)),
         ("the integral without dt", lambda *a: _pi(*a, use_dt=False)),
+        ("the error as measurement − set-point", lambda *a: _pi(*a, error_sign=-1.0)),
     ],
     "step_figures": [
         ("0 → 100 % rise time", lambda *a: _figures(*a, rise_from=0.0, rise_to=1.0)),
         ("the overshoot as a fraction", lambda *a: _figures(*a, percent=1.0)),
+        ("the overshoot over the set-point", lambda *a: _figures(*a, over_setpoint=True)),
+        ("the steady-state error as y∞ − set-point", lambda *a: _figures(*a, error_sign=-1.0)),
+        ("crossings at sample times", lambda *a: _figures(*a, interpolate=False)),
     ],
     "pole_placement": [
         ("dropping the plant's own damping",
          lambda K, tau, wn, z: (2 * z * wn * tau / K, wn * wn * tau / K)),
+        ("K_i without τ", lambda K, tau, wn, z: ((2 * z * wn * tau - 1) / K, wn * wn / K)),
     ],
     "ziegler_nichols_pid": [
         ("the PI row", lambda ku, tu: (0.45 * ku, 0.45 * ku / (tu / 1.2), 0.0)),
         ("T_i and T_d in place of K_i and K_d", lambda ku, tu: (0.6 * ku, tu / 2, tu / 8)),
+        ("K_i = K_p T_i", lambda ku, tu: (0.6 * ku, 0.6 * ku * tu / 2, 0.6 * ku * tu / 8)),
     ],
     "cascade_acceleration": [
         ("no acceleration limit", lambda r, v, k, a: k * (r - v)),
         ("the error the wrong way round", lambda r, v, k, a: min(max(k * (v - r), -a), a)),
+    ],
+}
+
+
+def _pi_either_side(kp, ki, dt, integral, r, y, low, high):
+    e = r - y
+    trial = integral + ki * e * dt
+    raw = kp * e + trial
+    if (raw > high and e > 0) or (raw < low and e < 0):
+        trial = integral
+    return float(np.clip(kp * e + trial, low, high)), trial
+
+
+def _figures_interp(t, y, setpoint):
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    final = y[-1]
+
+    def cross(level):
+        i = int(np.argmax(y >= level))
+        return t[0] if i == 0 else float(np.interp(level, y[i - 1:i + 1], t[i - 1:i + 1]))
+
+    inside = np.abs(y - final) <= 0.02 * final
+    last_out = len(y) - 1 - int(np.argmin(inside[::-1])) if not inside.all() else None
+    settle = 0.0 if last_out is None else t[min(last_out + 1, len(t) - 1)] - t[0]
+    return (cross(0.9 * final) - cross(0.1 * final),
+            100 * max(0.0, y.max() / final - 1), settle, setpoint - final)
+
+
+HONEST["lab04"] = {
+    "transfer_coefficients": [
+        ("np.polymul of (J s + b)(L s + R), plus K_t K_e",
+         lambda R, L, kt, ke, J, b, N: (np.array([kt / N]),
+                                        np.polymul([J, b], [L, R]) + np.array([0, 0, kt * ke]))),
+        ("np.convolve", lambda R, L, kt, ke, J, b, N: (
+            np.array([kt]) / N, np.convolve([J, b], [L, R]) + np.array([0, 0, kt * ke]))),
+    ],
+    "pi_step": [
+        ("the clamp as two conditions, np.clip", _pi_either_side),
+    ],
+    "step_figures": [
+        ("np.interp between the samples, the settling time from the end", _figures_interp),
+    ],
+    "pole_placement": [
+        ("divided by τ first",
+         lambda K, tau, wn, z: ((2 * z * wn - 1 / tau) * tau / K, wn**2 * tau / K)),
+    ],
+    "ziegler_nichols_pid": [
+        ("from T_i and T_d", lambda ku, tu: (lambda kp, ti, td: (kp, kp / ti, kp * td))(
+            0.6 * ku, tu / 2, tu / 8)),
+    ],
+    "cascade_acceleration": [
+        ("np.clip", lambda r, v, k, a: float(np.clip(k * (r - v), -a, a))),
+        ("math.copysign", lambda r, v, k, a: math.copysign(min(abs(k * (r - v)), a),
+                                                           k * (r - v))),
     ],
 }
 
@@ -1547,6 +1612,10 @@ COINCIDENT: dict[tuple[str, str], set[str]] = {
         {"400 counts whatever counts_per_rev says"},
     ("rpm_to_drive_units", "400 counts whatever counts_per_rev says"):
         {"the paper's rounded factor 43.7"},
+    # Lab 04: an error pushing further into saturation is frozen, as a reversed error is
+    # wherever the true one brings the output back (and the missing dt can land there too)
+    ("pi_step", "the integral without dt"): {"the error as measurement − set-point"},
+    ("pi_step", "the error as measurement − set-point"): {"the integral without dt"},
     ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
     ("tick_delta", "the increment modulo 2**bits, never negative"): {"a plain difference"},
     ("angle_residual", "an unwrapped difference"): {"a difference wrapped to [0, 2π)"},
