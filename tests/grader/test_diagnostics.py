@@ -856,20 +856,42 @@ def _update(x, P, z, H, R, *, gain="S", joseph=True):
     x, P, z = (np.asarray(v, float) for v in (x, P, z))
     H, R = np.atleast_2d(H), np.atleast_2d(R)
     S = H @ P @ H.T + R
-    K = P @ H.T @ np.linalg.inv(S if gain == "S" else R)
+    K = P @ H.T @ (S if gain == "S times" else np.linalg.inv(S if gain == "S" else R))
     x_new = x + K @ (z - H @ x)
     I_KH = np.eye(len(x)) - K @ H
     return x_new, (I_KH @ P @ I_KH.T + K @ R @ K.T) if joseph else I_KH @ P
 
 
-def _jacobian(x, dt, *, sign=-1.0):
+def _jacobian(x, dt, *, sign=-1.0, half=0.5):
     _, _, yaw, vx, _, ax = x
-    s = vx * dt + 0.5 * ax * dt * dt
+    s = vx * dt + half * ax * dt * dt
     c, sn = math.cos(yaw), math.sin(yaw)
-    return np.array([[1, 0, sign * s * sn, dt * c, 0, 0.5 * dt * dt * c],
-                     [0, 1, s * c, dt * sn, 0, 0.5 * dt * dt * sn],
+    return np.array([[1, 0, sign * s * sn, dt * c, 0, half * dt * dt * c],
+                     [0, 1, s * c, dt * sn, 0, half * dt * dt * sn],
                      [0, 0, 1, 0, dt, 0], [0, 0, 0, 1, 0, dt], [0, 0, 0, 0, 1, 0],
                      [0, 0, 0, 0, 0, 1]], dtype=float)
+
+
+CONFIG = ("x", "y", "z", "roll", "pitch", "yaw", "vx", "vy", "vz", "vroll", "vpitch", "vyaw",
+          "ax", "ay", "az")
+
+
+def _one_turn(z, zh):
+    d = z - zh
+    if d >= math.pi:
+        d -= 2 * math.pi
+    elif d < -math.pi:
+        d += 2 * math.pi
+    return d
+
+
+def _update_solved(x, P, z, H, R):
+    x, P, z = (np.asarray(v, float) for v in (x, P, z))
+    H, R = np.atleast_2d(H), np.atleast_2d(R)
+    S = H @ P @ H.T + R
+    K = np.linalg.solve(S, H @ P).T          # S symmetric: K = (S⁻¹ H P)ᵀ = P Hᵀ S⁻¹
+    I_KH = np.eye(len(x)) - K @ H
+    return x + K @ (z - H @ x), I_KH @ P @ I_KH.T + K @ R @ K.T
 
 
 LAB05 = {
@@ -878,14 +900,19 @@ LAB05 = {
          lambda x, P, F, Q: (np.asarray(F) @ x, np.asarray(F).T @ P @ np.asarray(F) + Q)),
         ("forgetting Q", lambda x, P, F, Q: (np.asarray(F) @ x,
                                              np.asarray(F) @ P @ np.asarray(F).T)),
+        ("F P F, the second F not transposed",
+         lambda x, P, F, Q: (np.asarray(F) @ x, np.asarray(F) @ P @ np.asarray(F) + Q)),
     ],
     "joseph_update": [
         ("a gain without S", lambda *a: _update(*a, gain="R")),
         ("the short form (I − K H) P", lambda *a: _update(*a, joseph=False)),
+        ("S multiplied, not inverted", lambda *a: _update(*a, gain="S times")),
     ],
     "angle_residual": [
         ("an unwrapped difference", lambda z, zh: z - zh),
         ("a difference wrapped to [0, 2π)", lambda z, zh: (z - zh) % (2 * math.pi)),
+        ("(d mod 2π) − π", lambda z, zh: (z - zh) % (2 * math.pi) - math.pi),
+        ("a single ±2π correction", _one_turn),
         ("generic: the values are the expected ones in degrees: work in radians",
          lambda z, zh: math.degrees(_wrap(z - zh))),
     ],
@@ -893,13 +920,69 @@ LAB05 = {
         ("yᵀ S y", lambda y, S: float(np.asarray(y) @ np.asarray(S) @ np.asarray(y))),
         ("the Mahalanobis distance",
          lambda y, S: math.sqrt(float(np.asarray(y) @ np.linalg.solve(S, y)))),
+        ("divided by the dimension",
+         lambda y, S: float(np.asarray(y) @ np.linalg.solve(S, y)) / len(y)),
     ],
     "planar_jacobian": [
         ("a transposed Jacobian", lambda x, dt: _jacobian(x, dt).T),
         ("∂x'/∂ψ with the wrong sign", lambda x, dt: _jacobian(x, dt, sign=1.0)),
+        ("the ½ of ½ a_x Δt² forgotten", lambda x, dt: _jacobian(x, dt, half=1.0)),
     ],
     "fused_state_indices": [
         ("the config's own indices", lambda config: [i for i, on in enumerate(config) if on]),
+        ("a state with vy", lambda config: [
+            i for i, name in enumerate(("x", "y", "yaw", "vx", "vy", "vyaw", "ax"))
+            if config[CONFIG.index(name)]]),
+    ],
+}
+
+
+def _planar_f(x, dt):
+    """The planar model's f (complex-safe: no wrapping)."""
+    px, py, yaw, vx, w, ax = x
+    s = vx * dt + 0.5 * ax * dt * dt
+    return np.array([px + s * np.cos(yaw), py + s * np.sin(yaw), yaw + w * dt, vx + ax * dt,
+                     w, ax])
+
+
+def _jacobian_complex_step(x, dt, h=1e-30):
+    """∂f/∂x by complex steps: exact to rounding, an independent check of the algebra."""
+    x = np.asarray(x, dtype=complex)
+    return np.column_stack([_planar_f(x + 1j * h * e, dt).imag / h for e in np.eye(6)])
+
+
+HONEST["lab05"] = {
+    "kf_predict": [
+        ("np.linalg.multi_dot", lambda x, P, F, Q: (np.asarray(F) @ np.asarray(x),
+                                                    np.linalg.multi_dot([F, P, np.transpose(F)])
+                                                    + Q)),
+        ("np.einsum", lambda x, P, F, Q: (np.einsum("ij,j->i", F, x),
+                                          np.einsum("ik,kl,jl->ij", F, P, F) + Q)),
+    ],
+    "joseph_update": [
+        ("np.linalg.solve for the gain", lambda x, P, z, H, R: _update_solved(x, P, z, H, R)),
+    ],
+    "angle_residual": [
+        ("atan2(sin d, cos d)", lambda z, zh: math.atan2(math.sin(z - zh), math.cos(z - zh))),
+        ("math.remainder(d, 2π)", lambda z, zh: math.remainder(z - zh, 2 * math.pi)),
+        ("np.angle of a unit complex number", lambda z, zh: float(np.angle(np.exp(1j * (z - zh))))),
+        ("(d + π) mod 2π − π", lambda z, zh: (z - zh + math.pi) % (2 * math.pi) - math.pi),
+    ],
+    "nis": [
+        ("y @ inv(S) @ y", lambda y, S: float(np.asarray(y) @ np.linalg.inv(S) @ np.asarray(y))),
+        ("a Cholesky solve", lambda y, S: float(np.sum(np.linalg.solve(np.linalg.cholesky(S),
+                                                                       y) ** 2))),
+    ],
+    "planar_jacobian": [
+        ("complex-step differentiation of f", _jacobian_complex_step),
+    ],
+    "fused_state_indices": [
+        ("a dict from field to state index",
+         lambda config: sorted({"x": 0, "y": 1, "yaw": 2, "vx": 3, "vyaw": 4, "ax": 5}[name]
+                               for name, on in zip(CONFIG, config, strict=True) if on and name in
+                               ("x", "y", "yaw", "vx", "vyaw", "ax"))),
+        ("np.flatnonzero on the six columns",
+         lambda config: np.flatnonzero(np.asarray(config)[[0, 1, 5, 6, 11, 12]]).tolist()),
     ],
 }
 
@@ -1619,7 +1702,10 @@ COINCIDENT: dict[tuple[str, str], set[str]] = {
     ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
     ("tick_delta", "the increment modulo 2**bits, never negative"): {"a plain difference"},
     ("angle_residual", "an unwrapped difference"): {"a difference wrapped to [0, 2π)"},
-    ("angle_residual", "a difference wrapped to [0, 2π)"): {"an unwrapped difference"},
+    ("angle_residual", "a difference wrapped to [0, 2π)"): {"an unwrapped difference",
+                                                            "a single ±2π correction"},
+    # between 3π and 4π one turn off is what [0, 2π) gives too
+    ("angle_residual", "a single ±2π correction"): {"a difference wrapped to [0, 2π)"},
     # Lab 09: both unit slips leave only the obstacle when the costs decay within a cell;
     # a transposed grid can block the path that a unit diagonal would have found
     ("inflate", "the inflation radius in metres against distances in cells"):
