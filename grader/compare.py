@@ -144,6 +144,13 @@ def _compare_bytes(expected: bytes, got: Any, path: str) -> str | None:
             f"(first difference at byte {first})")
 
 
+def _big_integers(expected: Any, got: Any) -> bool:
+    """Two Python integers (not booleans), one of them outside int64: a CRC or a counter
+    that was never cut to its width grows without bound in Python."""
+    return (all(isinstance(v, int) and not isinstance(v, bool) for v in (expected, got))
+            and not all(-(2**63) <= v < 2**63 for v in (expected, got)))
+
+
 def compare(expected: Any, got: Any, rtol: float = 1e-6, atol: float = 1e-9,
             path: str = "the output", hints: bool = True) -> str | None:
     """``None`` if ``got`` matches ``expected`` within the tolerances, else a message."""
@@ -178,6 +185,10 @@ def compare(expected: Any, got: Any, rtol: float = 1e-6, atol: float = 1e-9,
             if problem:
                 return problem
         return None
+
+    if _big_integers(expected, got):   # beyond int64: numpy would hold them as objects
+        return None if got == expected else \
+            f"{path}: expected {_fmt(expected)}, got {_fmt(got)} (exact integers)"
 
     e_arr = _as_array(expected)
     if e_arr is None:  # some other plain value

@@ -30,8 +30,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["PRACTICE_SECRET", "Case", "Diagnostic", "Exercise", "LabSpec", "SecretError",
-           "course_seed", "lab_names", "load_lab", "normalise_lab", "read_secret",
-           "until_each_shows"]
+           "course_seed", "lab_names", "load_lab", "normalise_lab", "read_secret"]
 
 PRACTICE_SECRET = "kit-practice"
 """the public seed of practice grading (no course secret): anyone can regenerate its cases."""
@@ -116,24 +115,6 @@ class LabSpec:
             if module is not None and getattr(module, name, None) is ex.reference:
                 names.add(f"{module.__name__}:{name}")
         return sorted(names)
-
-
-def until_each_shows(rng: np.random.Generator,
-                     draw: Callable[[np.random.Generator], Sequence[Case]],
-                     reference: Callable[..., Any], mistakes: Sequence[Callable[..., Any]],
-                     rtol: float = 0.0, atol: float = 1e-9, tries: int = 200) -> list[Case]:
-    """Hidden cases from ``draw`` (drawn again while needed) among which each of ``mistakes``
-    — the spec's own models of the exercise's classic mistakes — gives a wrong output at least
-    once (compared within ``rtol``/``atol``): whether a mistake costs points must not depend
-    on the student's draw. Raises ``RuntimeError`` when ``tries`` draws never do."""
-    from grader.compare import matches
-
-    for _ in range(tries):
-        cases = list(draw(rng))
-        if all(any(not matches(reference(*c.args, **c.kwargs), mistake(*c.args, **c.kwargs),
-                               rtol, atol) for c in cases) for mistake in mistakes):
-            return cases
-    raise RuntimeError(f"no {tries} draws of hidden cases tell every mistake apart")
 
 
 def lab_names() -> tuple[str, ...]:

@@ -4,6 +4,7 @@ says "not implemented yet". (The solution notebooks are checked by nbval: `make 
 
 from __future__ import annotations
 
+import itertools
 import json
 import re
 from pathlib import Path
@@ -512,3 +513,33 @@ def test_a_cell_that_needs_an_unfinished_exercise_draws_no_figure(path, monkeypa
         if cell.cell_type == "code" and NEEDS.search(_printed(cell)):
             drawn = [o for o in cell.outputs if "image/png" in o.get("data", {})]
             assert not drawn, f"cell {position} draws a figure under {_printed(cell)!r}"
+
+
+# ------------------------------------------------------------------ Labs 01–05: text and output
+
+def test_lab03_compass_reads_forty_sentences_a_second_as_a_student_runs_it(monkeypatch):
+    """"40 sentences a second" on a noisy line: run as a student runs it (no KIT_FAST, 5 s of
+    logical time), the cell reads the line as it comes and sees about 200 lines, of which
+    every accepted one holds the emulator's true heading (a read after one long sleep got 3)."""
+    monkeypatch.delenv("KIT_FAST", raising=False)
+    ran = _run_cells("03-drivers.ipynb", ["03-01", "03-11", "03-14"], {})
+    found = re.fullmatch(r"(\d+) lines, (\d+) sentences, (\d+) accepted; headings accepted: "
+                         r"\[90\.0\]\n", stream_text(ran["03-14"]))
+    assert found, stream_text(ran["03-14"])
+    lines, sentences, accepted = map(int, found.groups())
+    assert lines >= 180 and sentences >= 170 and 0 < accepted < sentences
+
+
+def test_lab03_names_the_stray_start_flag_and_the_other_flags_are_whole_turns():
+    """The lidar cell's text says a node that was never measured can carry the start flag
+    and that the cell names it: the flags it does not name are one A1 turn apart (about 360
+    nodes at 5.5 Hz), and each one it names falls inside a turn."""
+    text = stream_text(cell(solution("03-drivers.ipynb"), "03-19"))
+    flags = [int(s) for s in re.search(r"start flags at nodes \[([\d, ]*)\]", text).group(1)
+             .split(",")]
+    stray = [int(s) for s in re.findall(r"node (\d+) is no start", text)]
+    starts = [s for s in flags if s not in stray]
+    assert len(starts) >= 3 and set(stray) <= set(flags)
+    assert all(340 <= b - a <= 380 for a, b in itertools.pairwise(starts))
+    assert all(any(0 < s - a < 340 for a in starts) for s in stray)
+    assert "the cell above names it" in cell(solution("03-drivers.ipynb"), "03-19b").source

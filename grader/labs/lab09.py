@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from grader.spec import Case, Diagnostic, Exercise, LabSpec, until_each_shows
+from grader.labs._hidden import until_each_shows
+from grader.spec import Case, Diagnostic, Exercise, LabSpec
 from kit import planning as pl
 
 _BLOCKED = (
@@ -27,13 +27,6 @@ _BLOCKED = (
 )
 
 SQRT2 = math.sqrt(2.0)
-
-
-def _until_each_shows(rng: np.random.Generator, draw: Callable[[np.random.Generator], list[Case]],
-                      reference: Callable[..., Any], mistakes: Sequence[Callable[..., Any]],
-                      tries: int = 200) -> list[Case]:
-    """:func:`grader.spec.until_each_shows` at this lab's tolerances."""
-    return until_each_shows(rng, draw, reference, mistakes, 0.0, 1e-9, tries)
 
 
 # ---------------------------------------------------------------- inflation cost
@@ -94,8 +87,8 @@ def _distance_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _distances(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _distance_draw, _inflation_cost,
-                             [d.wrong for d in _COST_MISTAKES])
+    return until_each_shows(rng, _distance_draw, _inflation_cost,
+                            [d.wrong for d in _COST_MISTAKES])
 
 
 _COST_MISTAKES = (
@@ -215,8 +208,8 @@ def _inflate_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _inflate_hidden(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _inflate_draw, _inflate,
-                             [d.wrong for d in _INFLATE_MISTAKES])
+    return until_each_shows(rng, _inflate_draw, _inflate,
+                            [d.wrong for d in _INFLATE_MISTAKES])
 
 
 _INFLATE_MISTAKES = (
@@ -284,7 +277,7 @@ def _octile_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _octile_hidden(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _octile_draw, _octile, (_chebyshev, _manhattan, _euclidean))
+    return until_each_shows(rng, _octile_draw, _octile, (_chebyshev, _manhattan, _euclidean))
 
 
 octile_distance = Exercise(
@@ -505,9 +498,9 @@ def _astar_hidden(rng: np.random.Generator) -> list[Case]:
     traps = [_TRAPS[int(k)].case(int(rng.integers(8)))
              for k in rng.choice(len(_TRAPS), 2, replace=False)]
     cases = [Case(f"a detour {i}", trap) for i, trap in enumerate(traps)]
-    return cases + _until_each_shows(rng, _random_astar_draw, _astar,
-                                     (_astar_diagonal_one, _astar_corner_cutting,
-                                      _astar_swapped))
+    return cases + until_each_shows(rng, _random_astar_draw, _astar,
+                                    (_astar_diagonal_one, _astar_corner_cutting,
+                                     _astar_swapped))
 
 
 astar = Exercise(

@@ -9,12 +9,12 @@ the kit's extra sample at ω = 0).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from grader.spec import Case, Diagnostic, Exercise, LabSpec, until_each_shows
+from grader.labs._hidden import until_each_shows
+from grader.spec import Case, Diagnostic, Exercise, LabSpec
 from kit import geometry
 from kit import navigation as nav
 
@@ -25,13 +25,6 @@ _BLOCKED = (
 )
 
 
-
-
-def _until_each_shows(rng: np.random.Generator, draw: Callable[[np.random.Generator], list[Case]],
-                      reference: Callable[..., Any], mistakes: Sequence[Callable[..., Any]],
-                      tries: int = 200) -> list[Case]:
-    """:func:`grader.spec.until_each_shows` at this lab's tolerances."""
-    return until_each_shows(rng, draw, reference, mistakes, 1e-9, 1e-12, tries)
 
 
 # ---------------------------------------------------------------- pure pursuit
@@ -82,8 +75,8 @@ def _carrot_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _carrots(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _carrot_draw, _curvature,
-                             [d.wrong for d in _PURSUIT_MISTAKES])
+    return until_each_shows(rng, _carrot_draw, _curvature,
+                            [d.wrong for d in _PURSUIT_MISTAKES], rtol=1e-9, atol=1e-12)
 
 
 _PURSUIT_MISTAKES = (
@@ -220,7 +213,8 @@ def _speed_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _speeds(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _speed_draw, _regulated, [d.wrong for d in _RPP_MISTAKES])
+    return until_each_shows(rng, _speed_draw, _regulated, [d.wrong for d in _RPP_MISTAKES],
+                            rtol=1e-9, atol=1e-12)
 
 
 _RPP_MISTAKES = (
@@ -326,7 +320,8 @@ def _window_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _windows(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _window_draw, _window, [d.wrong for d in _WINDOW_MISTAKES])
+    return until_each_shows(rng, _window_draw, _window, [d.wrong for d in _WINDOW_MISTAKES],
+                            rtol=1e-9, atol=1e-12)
 
 
 _WINDOW_MISTAKES = (
@@ -408,7 +403,8 @@ def _rollout_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _rollouts(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _rollout_draw, _rollout, [d.wrong for d in _ROLLOUT_MISTAKES])
+    return until_each_shows(rng, _rollout_draw, _rollout, [d.wrong for d in _ROLLOUT_MISTAKES],
+                            rtol=1e-9, atol=1e-12)
 
 
 _ROLLOUT_MISTAKES = (
@@ -534,7 +530,7 @@ def _goal_draw(rng: np.random.Generator) -> list[Case]:
 
 
 def _goals(rng: np.random.Generator) -> list[Case]:
-    return _until_each_shows(rng, _goal_draw, _reached, _GOAL_SLIPS)
+    return until_each_shows(rng, _goal_draw, _reached, _GOAL_SLIPS, rtol=1e-9, atol=1e-12)
 
 
 _GOAL_MISTAKES = (

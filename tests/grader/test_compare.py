@@ -62,6 +62,17 @@ def test_integer_scalars_keep_their_one_line_message():
     assert compare(np.int64(437), 436) == "the output: expected 437, got 436 (exact integers)"
 
 
+def test_python_integers_beyond_int64_compare_exactly():
+    """A CRC never cut to 16 bits grows past int64: it is compared (and shown) as the
+    integer it is, not refused as an array of objects."""
+    grown = 2**80 + 0x31C3
+    assert compare(0x31C3, grown) == (f"the output: expected 12739, got {grown} "
+                                      f"(exact integers)")
+    assert compare(grown, grown) is None
+    assert compare(2**70, 2**70 + 1) is not None
+    assert compare(437, 436) == "the output: expected 437, got 436 (exact integers)"
+
+
 def test_inf_and_nan_answers_raise_no_warning():
     cases = [
         (np.array([-np.inf, 1.0, -2.0]), np.array([-np.inf, np.nan, -3.0])),

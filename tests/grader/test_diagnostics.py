@@ -57,9 +57,9 @@ def _A_B(r, b):
     return A, B
 
 
-def _fk(phi, r, b, sign=1.0):
+def _fk(phi, r, b, sign=1.0, mean=True):
     phi = np.asarray(phi, float)
-    return np.stack([r * (phi[..., 0] + phi[..., 1]) / 2, 0 * phi[..., 0],
+    return np.stack([r * (phi[..., 0] + phi[..., 1]) / (2 if mean else 1), 0 * phi[..., 0],
                      sign * r * (phi[..., 0] - phi[..., 1]) / (2 * b)], axis=-1)
 
 
@@ -70,11 +70,13 @@ def _ik(xi, r, b):
 
 
 def _odom(m, r, sep, i, s, *, gear=True, two_pi=True, sign=True, swap=False, deg=False,
-          halve=True, paper=False):
+          halve=True, paper=False, gear_times=False):
     m = np.asarray(m, float)
     right, left = (m[..., 1], m[..., 0]) if swap else (m[..., 0], m[..., 1])
     left = left * (s if sign else 1.0)
     k = (2 * np.pi if two_pi else 1.0) / (i if gear else 1.0)
+    if gear_times:
+        k = 2 * np.pi * i
     pr, pl = right * k, left * k
     b = sep / 2 if halve else sep
     v, w = r * (pr + pl) / 2, r * (pr - pl) / (2 * b)
@@ -83,7 +85,8 @@ def _odom(m, r, sep, i, s, *, gear=True, two_pi=True, sign=True, swap=False, deg
     return np.stack([v, np.degrees(w) if deg else w], axis=-1)
 
 
-def _twist(v, w, r, sep, i, s, *, sign=True, swap=False, gear=True, turns=True, forward=False):
+def _twist(v, w, r, sep, i, s, *, sign=True, swap=False, gear=True, turns=True, forward=False,
+           gear_divides=False):
     b = sep / 2
     if forward:
         wheels = np.array([r / 2 * v + r / (2 * b) * w, r / 2 * v - r / (2 * b) * w])
@@ -92,6 +95,8 @@ def _twist(v, w, r, sep, i, s, *, sign=True, swap=False, gear=True, turns=True, 
     if swap:
         wheels = wheels[::-1]
     wheels = wheels * (i if gear else 1.0) / (2 * np.pi if turns else 1.0)
+    if gear_divides:
+        wheels = wheels / i / i
     return wheels * np.array([1.0, s if sign else 1.0])
 
 
@@ -107,6 +112,9 @@ LAB01 = {
         ("the left wheel's rolling row first",
          lambda r, sep: (_A_B(r, sep / 2)[0][[1, 0, 2, 3]], _A_B(r, sep / 2)[1])),
         ("A and B transposed", lambda r, sep: tuple(m.T for m in _A_B(r, sep / 2))),
+        ("the no-slide rows as +ẏ = 0",
+         lambda r, sep: (np.array([[1.0, 0, sep / 2], [1, 0, -sep / 2], [0, 1, 0], [0, 1, 0]]),
+                         _A_B(r, sep / 2)[1])),
     ],
     "forward_kinematics": [
         ("swapped wheels or the paper's turn sign (erratum 5)",
@@ -119,6 +127,9 @@ LAB01 = {
         ("the inverse kinematics' matrix B⁺A",
          lambda phi, r, sep: np.asarray(phi, float) @ (np.linalg.pinv(_A_B(r, sep / 2)[1])
                                                        @ _A_B(r, sep / 2)[0])),
+        ("ẋ as the sum of the rim speeds", lambda phi, r, sep: _fk(phi, r, sep / 2, mean=False)),
+        ("θ̇ over b instead of over l = 2b",          # r (φ̇_r − φ̇_l) / b with b = l / 2
+         lambda phi, r, sep: _fk(phi, r, sep / 4)),
     ],
     "inverse_kinematics": [
         ("swapped wheels", lambda xi, r, sep: _ik(xi, r, sep / 2)[..., ::-1]),
@@ -127,6 +138,7 @@ LAB01 = {
                                                      @ _A_B(r, sep / 2)[1])),
         ("b = the whole wheel separation", lambda xi, r, sep: _ik(xi, r, sep)),
         ("turns per second", lambda xi, r, sep: _ik(xi, r, sep / 2) / (2 * np.pi)),
+        ("the rim speed, not the wheel's", lambda xi, r, sep: _ik(xi, 1.0, sep / 2)),
     ],
     "odometry_twist": [
         ("the paper's odometry equations (erratum 1)", lambda *a: _odom(*a, paper=True)),
@@ -136,6 +148,7 @@ LAB01 = {
         ("the motors read (left, right)", lambda *a: _odom(*a, swap=True)),
         ("ω in degrees per second", lambda *a: _odom(*a, deg=True)),
         ("b = the whole wheel separation", lambda *a: _odom(*a, halve=False)),
+        ("the gear ratio multiplied", lambda *a: _odom(*a, gear_times=True)),
     ],
     "twist_to_motor_speeds": [
         ("the forward kinematics (erratum 6)", lambda *a: _twist(*a, forward=True)),
@@ -143,6 +156,7 @@ LAB01 = {
         ("swapped wheels", lambda *a: _twist(*a, swap=True)),
         ("forgetting the gearbox", lambda *a: _twist(*a, gear=False)),
         ("rad/s instead of turns/s", lambda *a: _twist(*a, turns=False)),
+        ("the gear ratio divided", lambda *a: _twist(*a, gear_divides=True)),
     ],
     "igv_wheel_rpm": [
         ("(u_L, u_R): the paper's order, or ω's sign flipped",
@@ -150,11 +164,18 @@ LAB01 = {
         ("rad/s instead of RPM",
          lambda v, w: ((4000 * v + 1440 * w) / 67 * np.pi / 30,
                        (4000 * v - 1440 * w) / 67 * np.pi / 30)),
+        ("revolutions per second, not per minute",
+         lambda v, w: ((v + 0.36 * w) / 1.005, (v - 0.36 * w) / 1.005)),
+        ("ω times the whole separation",
+         lambda v, w: ((4000 * v + 2880 * w) / 67, (4000 * v - 2880 * w) / 67)),
     ],
     "rpm_to_drive_units": [
         ("truncation", lambda rpm, cpr=400: int(rpm * cpr / 60 * 2**17 / 20000)),
         ("counts/s without the drive's scaling", lambda rpm, cpr=400: round(rpm * cpr / 60)),
         ("the paper's rounded factor 43.7", lambda rpm, cpr=400: round(rpm * 43.7)),
+        ("int(x + 0.5)", lambda rpm, cpr=400: int(rpm * cpr / 60 * 2**17 / 20000 + 0.5)),
+        ("400 counts whatever counts_per_rev says",
+         lambda rpm, cpr=400: round(rpm * 400 / 60 * 2**17 / 20000)),
     ],
     "turning_radius": [
         ("ω / v", lambda v, w: w / v if v else math.inf),
@@ -163,26 +184,122 @@ LAB01 = {
     ],
     "saturate_wheel_speeds": [
         ("clipping each wheel", lambda phi, m: np.clip(np.asarray(phi, float), -m, m)),
+        ("the fastest wheel found without abs()", lambda phi, m: _saturate(phi, m, peak=np.max)),
+        ("scaling speeds that already fit", lambda phi, m: _saturate(phi, m, always=True)),
+    ],
+}
+
+
+def _saturate(phi, limit, peak=lambda p: np.max(np.abs(p)), always=False):
+    phi = np.asarray(phi, float)
+    fastest = peak(phi)
+    return phi * (limit / fastest) if always or fastest > limit else phi
+
+
+def _fk_closed_form(phi, r, sep):
+    phi = np.asarray(phi, float)
+    right, left = phi[..., 0], phi[..., 1]
+    return np.stack([r * (right + left) / 2, np.zeros_like(right), r * (right - left) / sep],
+                    axis=-1)
+
+
+def _fk_lstsq(phi, r, sep):
+    A, B = _A_B(r, sep / 2)
+    rhs = B @ np.asarray(phi, float).T                 # (4,) or (4, N)
+    return np.linalg.lstsq(A, rhs, rcond=None)[0].T
+
+
+def _ik_lstsq(xi, r, sep):
+    A, B = _A_B(r, sep / 2)
+    return np.linalg.lstsq(B, A @ np.asarray(xi, float).T, rcond=None)[0].T
+
+
+def _odom_matrix(m, r, sep, i, s):
+    wheels = np.asarray(m, float) * np.array([1.0, s]) * 2 * np.pi / i
+    J = np.array([[r / 2, r / 2], [r / sep, -r / sep]])
+    return wheels @ J.T
+
+
+def _constraints_filled(r, sep):
+    A, B = np.zeros((4, 3)), np.zeros((4, 2))
+    A[0, 0] = A[1, 0] = 1.0
+    A[0, 2], A[1, 2] = sep / 2, -sep / 2
+    A[2, 1] = A[3, 1] = -1.0
+    B[0, 0] = B[1, 1] = r
+    return A, B
+
+
+def _units_exact(rpm, counts_per_rev=400):
+    from fractions import Fraction
+
+    return round(Fraction(rpm) * counts_per_rev * 2**17 / (60 * 20000))
+
+
+HONEST["lab01"] = {
+    "constraint_matrices": [
+        ("np.zeros, then the entries", _constraints_filled),
+        ("a list [A, B] of nested lists",
+         lambda r, sep: [m.tolist() for m in _constraints_filled(r, sep)]),
+    ],
+    "forward_kinematics": [
+        ("the closed form, no pseudo-inverse", _fk_closed_form),
+        ("least squares (np.linalg.lstsq)", _fk_lstsq),
+    ],
+    "inverse_kinematics": [
+        ("the closed form", lambda xi, r, sep: _ik(xi, r, sep / 2)),
+        ("least squares (np.linalg.lstsq)", _ik_lstsq),
+    ],
+    "odometry_twist": [
+        ("a 2 × 2 matrix on the wheel speeds", _odom_matrix),
+    ],
+    "twist_to_motor_speeds": [
+        ("wheel turns per second first",
+         lambda v, w, r, sep, i, s: np.array([(v + w * sep / 2) / (2 * np.pi * r) * i,
+                                              s * (v - w * sep / 2) / (2 * np.pi * r) * i])),
+    ],
+    "igv_wheel_rpm": [
+        ("60 (v ± ω l/2) / 1.005 m per turn",
+         lambda v, w: (60 * (v + w * 0.72 / 2) / 1.005, 60 * (v - w * 0.72 / 2) / 1.005)),
+    ],
+    "rpm_to_drive_units": [
+        ("math.floor(x + 0.5)",
+         lambda rpm, cpr=400: math.floor(rpm * cpr / 60 * 2**17 / 20000 + 0.5)),
+        ("int(np.rint(x))", lambda rpm, cpr=400: int(np.rint(rpm * cpr * 2**17 / 1_200_000))),
+        ("exact fractions", _units_exact),
+    ],
+    "turning_radius": [
+        ("math.copysign(math.inf, v)",
+         lambda v, w: v / w if w else math.copysign(math.inf, v)),
+    ],
+    "saturate_wheel_speeds": [
+        ("divided by max(1, fastest / limit)",
+         lambda phi, m: np.asarray(phi, float) / max(1.0, np.max(np.abs(phi)) / m)),
+        ("a factor min(1, limit / fastest)",
+         lambda phi, m: np.asarray(phi, float) * min(1.0, m / float(np.max(np.abs(phi))))),
     ],
 }
 
 # ------------------------------------------------------------------ lab 02
 
 
-def _eddie(pose, dr, dl, sep, *, paper=False, wrap=True, deg=False):
+def _eddie(pose, dr, dl, sep, *, paper=False, wrap=True, deg=False, turn_first=True):
     x, y, th = (float(v) for v in pose)
+    ds = (dr + dl) / 2
+    if not turn_first:
+        x, y = x + ds * math.cos(th), y + ds * math.sin(th)
     d = ((dl - dr) if paper else (dr - dl)) / sep
     th = th + (math.degrees(d) if deg else d)
     if wrap:
         th = (th + math.pi) % (2 * math.pi) - math.pi
-    ds = (dr + dl) / 2
+    if not turn_first:
+        return np.array([x, y, th])
     return np.array([x + ds * math.cos(th), y + ds * math.sin(th), th])
 
 
-def _arc(pose, dr, dl, sep, *, chord=True, mean_heading=True, wrap=True):
+def _arc(pose, dr, dl, sep, *, chord=True, mean_heading=True, wrap=True, sinc_pi=True):
     x, y, th = (float(v) for v in pose)
     ds, dth = (dr + dl) / 2, (dr - dl) / sep
-    length = ds * np.sinc(dth / (2 * np.pi)) if chord else ds
+    length = ds * np.sinc(dth / (2 * np.pi) if sinc_pi else dth / 2) if chord else ds
     heading = th + dth / 2 if mean_heading else th
     new = th + dth
     if wrap:
@@ -194,6 +311,15 @@ def _path(d_right, d_left, sep, step, accumulate=True):
     poses = [np.zeros(3)]
     for dr, dl in zip(d_right, d_left, strict=True):
         poses.append(step(poses[-1] if accumulate else np.zeros(3), dr, dl, sep))
+    return np.array(poses)
+
+
+def _path_in_place(d_right, d_left, sep):
+    pose = np.zeros(3)
+    poses = [pose]
+    for dr, dl in zip(d_right, d_left, strict=True):
+        pose[:] = _arc(pose, dr, dl, sep)
+        poses.append(pose)
     return np.array(poses)
 
 
@@ -210,21 +336,27 @@ LAB02 = {
         ("the formula as printed, c_m = D / (n C_e)", lambda d, n, c: d / (n * c)),
         ("the radius in place of the diameter", lambda d, n, c: math.pi * (d / 2) / (n * c)),
         ("forgetting the gear ratio", lambda d, n, c: math.pi * d / c),
+        ("2π D for the circumference", lambda d, n, c: 2 * math.pi * d / (n * c)),
+        ("the gear ratio multiplied", lambda d, n, c: math.pi * d * n / c),
     ],
     "tick_delta": [
         ("a plain difference", lambda p, c, bits: c - p),
         ("the increment modulo 2**bits, never negative", lambda p, c, bits: (c - p) % 2**bits),
+        ("16 bits whatever counter_bits says",
+         lambda p, c, bits: (c - p) % 65536 - (65536 if (c - p) % 65536 >= 32768 else 0)),
     ],
     "eddie_odometry_step": [
         ("the paper's heading update (erratum 7)", lambda *a: _eddie(*a, paper=True)),
         ("an unwrapped heading", lambda *a: _eddie(*a, wrap=False)),
         ("the heading change in degrees", lambda *a: _eddie(*a, wrap=False, deg=True)),
+        ("moving along the old heading", lambda *a: _eddie(*a, turn_first=False)),
     ],
     "exact_arc_step": [
         ("Euler integration", lambda *a: _arc(*a, chord=False, mean_heading=False)),
         ("the mean heading without the chord factor", lambda *a: _arc(*a, chord=False)),
         ("an unwrapped heading", lambda *a: _arc(*a, wrap=False)),
         ("the wheels swapped", lambda pose, dr, dl, sep: _arc(pose, dl, dr, sep)),
+        ("np.sinc(Δθ / 2)", lambda *a: _arc(*a, sinc_pi=False)),
     ],
     "integrate_path": [
         ("the paper's pose update (erratum 2)",
@@ -232,6 +364,8 @@ LAB02 = {
         ("Euler steps in place of the arc",
          lambda dr, dl, sep: _path(dr, dl, sep, lambda *a: _arc(*a, chord=False,
                                                                   mean_heading=False))),
+        ("the start pose left out", lambda dr, dl, sep: _path(dr, dl, sep, _arc)[1:]),
+        ("one array appended again and again", _path_in_place),
     ],
     "yaw_to_quaternion": [
         ("the full angle", lambda t: np.array([0.0, 0.0, math.sin(t), math.cos(t)])),
@@ -242,13 +376,115 @@ LAB02 = {
     "make_odom_transform": [
         ("parent and child swapped", lambda pose, stamp: _odom_tf(pose, stamp, "base_link",
                                                                   "odom")),
+        ("frame ids with a leading slash",
+         lambda pose, stamp: _odom_tf(pose, stamp, "/odom", "/base_link")),
+    ],
+}
+
+
+def _ticks_corrected(p, c, bits):
+    d, m = c - p, 2**bits
+    if d >= m // 2:
+        d -= m
+    elif d < -(m // 2):
+        d += m
+    return d
+
+
+def _arc_formula(pose, dr, dl, sep):
+    """R (sin(θ + Δθ) − sin θ), −R (cos(θ + Δθ) − cos θ), and a straight line when Δθ = 0."""
+    x, y, th = (float(v) for v in pose)
+    ds, dth = (dr + dl) / 2, (dr - dl) / sep
+    if dth == 0:
+        return np.array([x + ds * math.cos(th), y + ds * math.sin(th), _wrap(th)])
+    R = ds / dth
+    return np.array([x + R * (math.sin(th + dth) - math.sin(th)),
+                     y - R * (math.cos(th + dth) - math.cos(th)), _wrap(th + dth)])
+
+
+def _arc_sin_over_h(pose, dr, dl, sep):
+    x, y, th = (float(v) for v in pose)
+    ds, dth = (dr + dl) / 2, (dr - dl) / sep
+    h = dth / 2
+    chord = ds * (math.sin(h) / h if h else 1.0)
+    return np.array([x + chord * math.cos(th + h), y + chord * math.sin(th + h),
+                     math.atan2(math.sin(th + dth), math.cos(th + dth))])
+
+
+def _path_preallocated(d_right, d_left, sep):
+    poses = np.zeros((len(d_right) + 1, 3))
+    for k, (dr, dl) in enumerate(zip(d_right, d_left, strict=True)):
+        poses[k + 1] = _arc_sin_over_h(poses[k], dr, dl, sep)
+    return poses
+
+
+def _path_accumulate(d_right, d_left, sep):
+    steps = itertools.accumulate(zip(d_right, d_left, strict=True),
+                                 lambda pose, d: _arc(pose, d[0], d[1], sep),
+                                 initial=np.zeros(3))
+    return np.array(list(steps))
+
+
+def _quat_scipy(theta):
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_euler("z", theta).as_quat()
+
+
+def _tf_keywords(pose, stamp):
+    x, y, th = (float(v) for v in pose)
+    return msgs.TransformStamped(
+        header=msgs.Header(stamp=msgs.Time(sec=stamp.sec, nanosec=stamp.nanosec),
+                           frame_id="odom"),
+        child_frame_id="base_link",
+        transform=msgs.Transform(translation=msgs.Vector3(x=x, y=y, z=0.0),
+                                 rotation=msgs.Quaternion(x=0.0, y=0.0, z=math.sin(th / 2),
+                                                          w=math.cos(th / 2))))
+
+
+HONEST["lab02"] = {
+    "conversion_factor": [
+        ("np.pi D / n / C_e", lambda d, n, c: np.pi * d / n / c),
+        ("math.tau × the radius", lambda d, n, c: math.tau * (d / 2) / (n * c)),
+    ],
+    "tick_delta": [
+        ("shifted by half the range",
+         lambda p, c, bits: (c - p + 2 ** (bits - 1)) % 2**bits - 2 ** (bits - 1)),
+        ("the plain difference corrected by ±2**bits", _ticks_corrected),
+    ],
+    "eddie_odometry_step": [
+        ("the heading wrapped with atan2(sin, cos)",
+         lambda pose, dr, dl, sep: _eddie(pose, dr, dl, sep, wrap=False)
+         * np.array([1.0, 1.0, 0.0])
+         + np.array([0.0, 0.0, math.atan2(math.sin(pose[2] + (dr - dl) / sep),
+                                          math.cos(pose[2] + (dr - dl) / sep))])),
+        ("the heading wrapped with math.remainder",
+         lambda pose, dr, dl, sep: np.array([*_eddie(pose, dr, dl, sep)[:2],
+                                             math.remainder(pose[2] + (dr - dl) / sep,
+                                                            2 * math.pi)])),
+    ],
+    "exact_arc_step": [
+        ("the arc formula, with a branch for Δθ = 0", _arc_formula),
+        ("sin(h) / h, with a branch for h = 0", _arc_sin_over_h),
+    ],
+    "integrate_path": [
+        ("a preallocated (N + 1, 3) array", _path_preallocated),
+        ("itertools.accumulate", _path_accumulate),
+    ],
+    "yaw_to_quaternion": [
+        ("scipy's Rotation.from_euler('z', θ).as_quat()", _quat_scipy),
+        ("a half-angle complex exponential",
+         lambda t: np.array([0.0, 0.0, np.exp(0.5j * t).imag, np.exp(0.5j * t).real])),
+    ],
+    "make_odom_transform": [
+        ("keyword arguments throughout", _tf_keywords),
     ],
 }
 
 # ------------------------------------------------------------------ lab 03
 
 
-def _crc(data, init=0, reflect=False, swap=False):
+def _crc(data, init=0, reflect=False, swap=False, mask=0xFFFF, shift=8):
     crc = init
     for byte in data:
         if reflect:
@@ -256,30 +492,30 @@ def _crc(data, init=0, reflect=False, swap=False):
             for _ in range(8):
                 crc = (crc >> 1) ^ 0x8408 if crc & 1 else crc >> 1
         else:
-            crc ^= byte << 8
+            crc ^= byte << shift
             for _ in range(8):
-                crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+                crc = ((crc << 1) ^ 0x1021) & mask if crc & 0x8000 else (crc << 1) & mask
     return ((crc & 0xFF) << 8) | (crc >> 8) if swap else crc
 
 
 def _frame(address, offset, rpm, sequence=0, *, crc_order="big", data_order="little",
-           factor=None, crc_from=0):
+           factor=None, crc_from=0, shift=2, data_crc_of_all=False):
     units = round(rpm * 43.7) if factor else round(rpm * 400 / 60 * 2**17 / 20000)
-    header = bytes([0xA5, address, 2 | (sequence << 2), 0x45, offset, 2])
+    header = bytes([0xA5, address, 2 | (sequence << shift), 0x45, offset, 2])
     data = units.to_bytes(4, data_order, signed=True)
-    return (header + _crc(header[crc_from:]).to_bytes(2, crc_order) + data +
-            _crc(data).to_bytes(2, crc_order))
+    frame = header + _crc(header[crc_from:]).to_bytes(2, crc_order) + data
+    return frame + _crc(frame if data_crc_of_all else data).to_bytes(2, crc_order)
 
 
-def _compass(line, yaw_of):
+def _compass(line, yaw_of, checked=True, from_dollar=False):
     m = re.fullmatch(r"\$([^*$]*)\*([0-9A-Fa-f]{2})", line.strip())
     if not m:
         return None
     body, given = m.groups()
     check = 0
-    for ch in body:
+    for ch in ("$" if from_dollar else "") + body:
         check ^= ord(ch)
-    if check != int(given, 16) or not body.startswith("C"):
+    if (checked and check != int(given, 16)) or not body.startswith("C"):
         return None
     f = dict(re.findall(r"(Mx|My|Mz|Ax|Ay|Az|[CPRTD])(-?\d+(?:\.\d+)?)", body))
     if not all(k in f for k in "CPR"):
@@ -292,15 +528,15 @@ def _wrap(a):
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-def _nodes(data, step_on_miss=1, raw=False):
+def _nodes(data, step_on_miss=1, raw=False, check_bit=False, quality_shift=2):
     rows, i = [], 0
     while i + 5 <= len(data):
         b0, b1 = data[i], data[i + 1]
         if ((b0 ^ (b0 >> 1)) & 1) and (b1 & 1):
-            angle = (b1 >> 1) | (data[i + 2] << 7)
+            angle = (b1 | (data[i + 2] << 8)) if check_bit else (b1 >> 1) | (data[i + 2] << 7)
             dist = data[i + 3] | (data[i + 4] << 8)
-            rows.append([b0 & 1, b0 >> 2, angle if raw else angle / 64, dist if raw else
-                         dist / 4])
+            rows.append([b0 & 1, b0 >> quality_shift, angle if raw else angle / 64,
+                         dist if raw else dist / 4])
             i += 5
         else:
             i += step_on_miss
@@ -313,12 +549,13 @@ PAPER_STATES = {0: "UNDEFINED", 1: "IDLE", 2: "STARTUP_SEQUENCE",
                 8: "CLOSED_LOOP_CONTROL", 9: "LOCKIN_SPIN", 10: "ENCODER_DIR_FIND"}
 
 
-def _motors(v, w, *, mirror=True, turns=True, gear=True, clip_each=False):
-    r, b, limit = 0.05, 0.1805, 20.0  # hardware/robots/uiabot.toml
+def _motors(v, w, *, mirror=True, turns=True, gear=True, clip_each=False, limited=True,
+            b=0.1805):
+    r, limit = 0.05, 20.0  # hardware/robots/uiabot.toml
     wheels = np.array([v + w * b, v - w * b]) / r
     if clip_each:
         wheels = np.clip(wheels, -limit, limit)
-    elif np.max(np.abs(wheels)) > limit:
+    elif limited and np.max(np.abs(wheels)) > limit:
         wheels = wheels * limit / np.max(np.abs(wheels))
     wheels = wheels * (20 if gear else 1) / (2 * math.pi if turns else 1)
     return wheels * np.array([1.0, -1.0 if mirror else 1.0])
@@ -329,12 +566,15 @@ LAB03 = {
         ("CRC-16/CCITT-FALSE (initial value 0xFFFF)", lambda d: _crc(d, init=0xFFFF)),
         ("the two result bytes swapped", lambda d: _crc(d, swap=True)),
         ("CRC-16/KERMIT (bits reflected)", lambda d: _crc(d, reflect=True)),
+        ("the CRC not kept to 16 bits", lambda d: _crc(d, mask=-1)),
+        ("each byte XORed into the low 8 bits", lambda d: _crc(d, shift=0)),
     ],
     "velocity_frame": [
         ("CRCs sent low byte first", lambda *a: _frame(*a, crc_order="little")),
         ("the velocity sent big-endian", lambda *a: _frame(*a, data_order="big")),
         ("RPM × 43.7", lambda *a: _frame(*a, factor=43.7)),
         ("header CRC without the A5", lambda *a: _frame(*a, crc_from=1)),
+        ("the sequence number not shifted", lambda *a: _frame(*a, shift=0)),
     ],
     "parse_compass": [
         ("the heading as yaw", lambda s: _compass(s, lambda h: _wrap(math.radians(h)))),
@@ -342,32 +582,154 @@ LAB03 = {
         ("the yaw in degrees",
          lambda s: _compass(s, lambda h: math.degrees(_wrap(math.pi / 2 - math.radians(h))))),
         ("an unwrapped yaw", lambda s: _compass(s, lambda h: math.pi / 2 - math.radians(h))),
+        ("the checksum not checked", lambda s: _compass(s, _yaw, checked=False)),
+        ("a valid sentence refused", lambda s: _compass(s, _yaw, from_dollar=True)),
     ],
     "decode_nodes": [
         ("whole 5-byte steps (no resynchronising)", lambda d: _nodes(d, step_on_miss=5)),
         ("raw q6 angle and q2 distance", lambda d: _nodes(d, raw=True)),
+        ("the check bit kept in the angle", lambda d: _nodes(d, check_bit=True)),
+        ("the quality not shifted", lambda d: _nodes(d, quality_shift=0)),
     ],
     "axis_state_name": [
         ("the paper's table for every firmware", lambda value, fw: PAPER_STATES.get(value)),
+        ("the new table for every firmware", lambda value, fw: NEW_STATES.get(value)),
     ],
     "uiabot_motor_speeds": [
         ("the left motor not mirrored", lambda v, w: _motors(v, w, mirror=False)),
         ("rad/s instead of turns/s", lambda v, w: _motors(v, w, turns=False)),
         ("wheel speed, not motor speed", lambda v, w: _motors(v, w, gear=False)),
         ("each wheel clipped on its own", lambda v, w: _motors(v, w, clip_each=True)),
+        ("no wheel limit", lambda v, w: _motors(v, w, limited=False)),
+        ("b = the whole wheel separation", lambda v, w: _motors(v, w, b=0.361)),
+    ],
+}
+
+
+def _yaw(heading_deg):
+    return _wrap(math.pi / 2 - math.radians(heading_deg))
+
+
+def _crc_table():
+    table = []
+    for top in range(256):
+        crc = top << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+        table.append(crc)
+    return table
+
+
+CRC_TABLE = _crc_table()
+
+
+def _crc_by_table(data):
+    crc = 0
+    for byte in data:
+        crc = ((crc << 8) & 0xFFFF) ^ CRC_TABLE[(crc >> 8) ^ byte]
+    return crc
+
+
+def _frame_struct(address, offset, rpm, sequence=0):
+    import binascii
+    import struct
+
+    header = struct.pack("<6B", 0xA5, address, 2 | sequence << 2, 0x45, offset, 2)
+    data = struct.pack("<i", round(rpm * 400 / 60 * 2**17 / 20000))
+    return b"".join([header, struct.pack(">H", binascii.crc_hqx(header, 0)), data,
+                     struct.pack(">H", binascii.crc_hqx(data, 0))])
+
+
+def _compass_split(line):
+    import functools
+    import operator
+
+    line = line.strip()
+    if not line.startswith("$") or line.count("*") != 1:
+        return None
+    body, given = line[1:].split("*")
+    if len(given) != 2 or any(c not in "0123456789abcdefABCDEF" for c in given):
+        return None
+    if functools.reduce(operator.xor, map(ord, body), 0) != int(given, 16):
+        return None
+    fields = {}
+    for key, value in re.findall(r"(Mx|My|Mz|Ax|Ay|Az|[A-Z])(-?[\d.]+)", body):
+        fields.setdefault(key, float(value))
+    if not body.startswith("C") or not {"C", "P", "R"} <= set(fields):
+        return None
+    h = math.radians(fields["C"])
+    return fields["C"], fields["P"], fields["R"], math.atan2(math.cos(h), math.sin(h))
+
+
+def _nodes_struct(data):
+    import struct
+
+    rows, i = [], 0
+    while i + 5 <= len(data):
+        b0, angle, distance = struct.unpack_from("<BHH", data, i)
+        if (b0 & 1) != ((b0 >> 1) & 1) and angle & 1:
+            rows.append([b0 & 1, b0 >> 2, (angle >> 1) / 64, distance / 4])
+            i += 5
+        else:
+            i += 1
+    return np.array(rows, dtype=float).reshape(-1, 4)
+
+
+NEW_STATES = {**{k: v for k, v in PAPER_STATES.items() if k != 5}, 11: "HOMING",
+              12: "ENCODER_HALL_POLARITY_CALIBRATION", 13: "ENCODER_HALL_PHASE_CALIBRATION"}
+
+
+def _state_by_version(value, firmware):
+    from packaging.version import Version
+
+    table = NEW_STATES if Version(firmware) >= Version("0.5.2") else PAPER_STATES
+    return table.get(value)
+
+
+HONEST["lab03"] = {
+    "crc16_xmodem": [
+        ("binascii.crc_hqx(data, 0)", lambda d: __import__("binascii").crc_hqx(d, 0)),
+        ("a 256-entry table", _crc_by_table),
+        ("masked once at the end", lambda d: _crc(d, mask=-1) & 0xFFFF),
+    ],
+    "velocity_frame": [
+        ("struct.pack and binascii.crc_hqx", _frame_struct),
+        # XMODEM over a block followed by its own CRC (high byte first) leaves 0, so the
+        # CRC of header, header CRC and data is the data's CRC
+        ("the data CRC over the whole frame so far",
+         lambda *a: _frame(*a, data_crc_of_all=True)),
+    ],
+    "parse_compass": [
+        ("str.split, functools.reduce and atan2", _compass_split),
+    ],
+    "decode_nodes": [
+        ("struct.unpack_from('<BHH')", _nodes_struct),
+    ],
+    "axis_state_name": [
+        ("packaging.version and two tables", _state_by_version),
+        ("tuples of ints and two tables",
+         lambda value, fw: (NEW_STATES if tuple(map(int, fw.split("."))) >= (0, 5, 2)
+                            else PAPER_STATES).get(value)),
+    ],
+    "uiabot_motor_speeds": [
+        ("a factor min(1, limit / fastest)",
+         lambda v, w: (lambda wheels: wheels * min(1.0, 20.0 / np.max(np.abs(wheels))) * 20
+                       / (2 * math.pi) * np.array([1.0, -1.0]))(
+             np.array([v + w * 0.1805, v - w * 0.1805]) / 0.05)),
     ],
 }
 
 # ------------------------------------------------------------------ lab 04
 
 
-def _tf(R, L, kt, ke, J, b, N, *, gear=True, reverse=False):
-    den = np.array([J * L, J * R + b * L, b * R + kt * ke])
-    return np.array([kt / (N if gear else 1.0)]), den[::-1] if reverse else den
+def _tf(R, L, kt, ke, J, b, N, *, gear=True, reverse=False, gear_times=False, emf=True):
+    den = np.array([J * L, J * R + b * L, b * R + (kt * ke if emf else 0.0)])
+    num = kt * N if gear_times else kt / (N if gear else 1.0)
+    return np.array([num]), den[::-1] if reverse else den
 
 
-def _pi(kp, ki, dt, integral, r, y, low, high, *, clamp=True, use_dt=True):
-    e = r - y
+def _pi(kp, ki, dt, integral, r, y, low, high, *, clamp=True, use_dt=True, error_sign=1.0):
+    e = error_sign * (r - y)
     new = integral + ki * e * (dt if use_dt else 1.0)
     raw = kp * e + new
     out = min(max(raw, low), high)
@@ -377,49 +739,113 @@ def _pi(kp, ki, dt, integral, r, y, low, high, *, clamp=True, use_dt=True):
     return out, new
 
 
-def _figures(t, y, setpoint, *, rise_from=0.1, rise_to=0.9, percent=100.0):
+def _figures(t, y, setpoint, *, rise_from=0.1, rise_to=0.9, percent=100.0, over_setpoint=False,
+             error_sign=1.0, interpolate=True):
     t, y = np.asarray(t, float), np.asarray(y, float)
     final = y[-1]
 
     def cross(level):
         i = int(np.argmax(y >= level))
-        if i == 0:
-            return t[0]
+        if i == 0 or not interpolate:
+            return t[i]
         return t[i - 1] + (level - y[i - 1]) * (t[i] - t[i - 1]) / (y[i] - y[i - 1])
 
     start = cross(rise_from * final) if rise_from else t[0]
     rise = (cross(rise_to * final) if rise_to < 1 else t[int(np.argmax(y >= final))]) - start
-    over = max(0.0, (y.max() - final) / final * percent)
+    reference = setpoint if over_setpoint else final
+    over = max(0.0, (y.max() - reference) / reference * percent)
     outside = np.flatnonzero(np.abs(y - final) > 0.02 * final)
     settle = 0.0 if len(outside) == 0 else (t[outside[-1] + 1] - t[0] if outside[-1] + 1 < len(t)
                                             else t[-1] - t[0])
-    return rise, over, settle, setpoint - final
+    return rise, over, settle, error_sign * (setpoint - final)
 
 
 LAB04 = {
     "transfer_coefficients": [
         ("forgetting the gearbox", lambda *a: _tf(*a, gear=False)),
         ("the denominator lowest power first", lambda *a: _tf(*a, reverse=True)),
+        ("the gear ratio multiplied", lambda *a: _tf(*a, gear_times=True)),
+        ("the back-EMF forgotten", lambda *a: _tf(*a, emf=False)),
     ],
     "pi_step": [
         ("no anti-windup", lambda *a: _pi(*a, clamp=False)),
         ("the integral without dt", lambda *a: _pi(*a, use_dt=False)),
+        ("the error as measurement − set-point", lambda *a: _pi(*a, error_sign=-1.0)),
     ],
     "step_figures": [
         ("0 → 100 % rise time", lambda *a: _figures(*a, rise_from=0.0, rise_to=1.0)),
         ("the overshoot as a fraction", lambda *a: _figures(*a, percent=1.0)),
+        ("the overshoot over the set-point", lambda *a: _figures(*a, over_setpoint=True)),
+        ("the steady-state error as y∞ − set-point", lambda *a: _figures(*a, error_sign=-1.0)),
+        ("crossings at sample times", lambda *a: _figures(*a, interpolate=False)),
     ],
     "pole_placement": [
         ("dropping the plant's own damping",
          lambda K, tau, wn, z: (2 * z * wn * tau / K, wn * wn * tau / K)),
+        ("K_i without τ", lambda K, tau, wn, z: ((2 * z * wn * tau - 1) / K, wn * wn / K)),
     ],
     "ziegler_nichols_pid": [
         ("the PI row", lambda ku, tu: (0.45 * ku, 0.45 * ku / (tu / 1.2), 0.0)),
         ("T_i and T_d in place of K_i and K_d", lambda ku, tu: (0.6 * ku, tu / 2, tu / 8)),
+        ("K_i = K_p T_i", lambda ku, tu: (0.6 * ku, 0.6 * ku * tu / 2, 0.6 * ku * tu / 8)),
     ],
     "cascade_acceleration": [
         ("no acceleration limit", lambda r, v, k, a: k * (r - v)),
         ("the error the wrong way round", lambda r, v, k, a: min(max(k * (v - r), -a), a)),
+    ],
+}
+
+
+def _pi_either_side(kp, ki, dt, integral, r, y, low, high):
+    e = r - y
+    trial = integral + ki * e * dt
+    raw = kp * e + trial
+    if (raw > high and e > 0) or (raw < low and e < 0):
+        trial = integral
+    return float(np.clip(kp * e + trial, low, high)), trial
+
+
+def _figures_interp(t, y, setpoint):
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    final = y[-1]
+
+    def cross(level):
+        i = int(np.argmax(y >= level))
+        return t[0] if i == 0 else float(np.interp(level, y[i - 1:i + 1], t[i - 1:i + 1]))
+
+    inside = np.abs(y - final) <= 0.02 * final
+    last_out = len(y) - 1 - int(np.argmin(inside[::-1])) if not inside.all() else None
+    settle = 0.0 if last_out is None else t[min(last_out + 1, len(t) - 1)] - t[0]
+    return (cross(0.9 * final) - cross(0.1 * final),
+            100 * max(0.0, y.max() / final - 1), settle, setpoint - final)
+
+
+HONEST["lab04"] = {
+    "transfer_coefficients": [
+        ("np.polymul of (J s + b)(L s + R), plus K_t K_e",
+         lambda R, L, kt, ke, J, b, N: (np.array([kt / N]),
+                                        np.polymul([J, b], [L, R]) + np.array([0, 0, kt * ke]))),
+        ("np.convolve", lambda R, L, kt, ke, J, b, N: (
+            np.array([kt]) / N, np.convolve([J, b], [L, R]) + np.array([0, 0, kt * ke]))),
+    ],
+    "pi_step": [
+        ("the clamp as two conditions, np.clip", _pi_either_side),
+    ],
+    "step_figures": [
+        ("np.interp between the samples, the settling time from the end", _figures_interp),
+    ],
+    "pole_placement": [
+        ("divided by τ first",
+         lambda K, tau, wn, z: ((2 * z * wn - 1 / tau) * tau / K, wn**2 * tau / K)),
+    ],
+    "ziegler_nichols_pid": [
+        ("from T_i and T_d", lambda ku, tu: (lambda kp, ti, td: (kp, kp / ti, kp * td))(
+            0.6 * ku, tu / 2, tu / 8)),
+    ],
+    "cascade_acceleration": [
+        ("np.clip", lambda r, v, k, a: float(np.clip(k * (r - v), -a, a))),
+        ("math.copysign", lambda r, v, k, a: math.copysign(min(abs(k * (r - v)), a),
+                                                           k * (r - v))),
     ],
 }
 
@@ -430,20 +856,42 @@ def _update(x, P, z, H, R, *, gain="S", joseph=True):
     x, P, z = (np.asarray(v, float) for v in (x, P, z))
     H, R = np.atleast_2d(H), np.atleast_2d(R)
     S = H @ P @ H.T + R
-    K = P @ H.T @ np.linalg.inv(S if gain == "S" else R)
+    K = P @ H.T @ (S if gain == "S times" else np.linalg.inv(S if gain == "S" else R))
     x_new = x + K @ (z - H @ x)
     I_KH = np.eye(len(x)) - K @ H
     return x_new, (I_KH @ P @ I_KH.T + K @ R @ K.T) if joseph else I_KH @ P
 
 
-def _jacobian(x, dt, *, sign=-1.0):
+def _jacobian(x, dt, *, sign=-1.0, half=0.5):
     _, _, yaw, vx, _, ax = x
-    s = vx * dt + 0.5 * ax * dt * dt
+    s = vx * dt + half * ax * dt * dt
     c, sn = math.cos(yaw), math.sin(yaw)
-    return np.array([[1, 0, sign * s * sn, dt * c, 0, 0.5 * dt * dt * c],
-                     [0, 1, s * c, dt * sn, 0, 0.5 * dt * dt * sn],
+    return np.array([[1, 0, sign * s * sn, dt * c, 0, half * dt * dt * c],
+                     [0, 1, s * c, dt * sn, 0, half * dt * dt * sn],
                      [0, 0, 1, 0, dt, 0], [0, 0, 0, 1, 0, dt], [0, 0, 0, 0, 1, 0],
                      [0, 0, 0, 0, 0, 1]], dtype=float)
+
+
+CONFIG = ("x", "y", "z", "roll", "pitch", "yaw", "vx", "vy", "vz", "vroll", "vpitch", "vyaw",
+          "ax", "ay", "az")
+
+
+def _one_turn(z, zh):
+    d = z - zh
+    if d >= math.pi:
+        d -= 2 * math.pi
+    elif d < -math.pi:
+        d += 2 * math.pi
+    return d
+
+
+def _update_solved(x, P, z, H, R):
+    x, P, z = (np.asarray(v, float) for v in (x, P, z))
+    H, R = np.atleast_2d(H), np.atleast_2d(R)
+    S = H @ P @ H.T + R
+    K = np.linalg.solve(S, H @ P).T          # S symmetric: K = (S⁻¹ H P)ᵀ = P Hᵀ S⁻¹
+    I_KH = np.eye(len(x)) - K @ H
+    return x + K @ (z - H @ x), I_KH @ P @ I_KH.T + K @ R @ K.T
 
 
 LAB05 = {
@@ -452,14 +900,19 @@ LAB05 = {
          lambda x, P, F, Q: (np.asarray(F) @ x, np.asarray(F).T @ P @ np.asarray(F) + Q)),
         ("forgetting Q", lambda x, P, F, Q: (np.asarray(F) @ x,
                                              np.asarray(F) @ P @ np.asarray(F).T)),
+        ("F P F, the second F not transposed",
+         lambda x, P, F, Q: (np.asarray(F) @ x, np.asarray(F) @ P @ np.asarray(F) + Q)),
     ],
     "joseph_update": [
         ("a gain without S", lambda *a: _update(*a, gain="R")),
         ("the short form (I − K H) P", lambda *a: _update(*a, joseph=False)),
+        ("S multiplied, not inverted", lambda *a: _update(*a, gain="S times")),
     ],
     "angle_residual": [
         ("an unwrapped difference", lambda z, zh: z - zh),
         ("a difference wrapped to [0, 2π)", lambda z, zh: (z - zh) % (2 * math.pi)),
+        ("(d mod 2π) − π", lambda z, zh: (z - zh) % (2 * math.pi) - math.pi),
+        ("a single ±2π correction", _one_turn),
         ("generic: the values are the expected ones in degrees: work in radians",
          lambda z, zh: math.degrees(_wrap(z - zh))),
     ],
@@ -467,13 +920,69 @@ LAB05 = {
         ("yᵀ S y", lambda y, S: float(np.asarray(y) @ np.asarray(S) @ np.asarray(y))),
         ("the Mahalanobis distance",
          lambda y, S: math.sqrt(float(np.asarray(y) @ np.linalg.solve(S, y)))),
+        ("divided by the dimension",
+         lambda y, S: float(np.asarray(y) @ np.linalg.solve(S, y)) / len(y)),
     ],
     "planar_jacobian": [
         ("a transposed Jacobian", lambda x, dt: _jacobian(x, dt).T),
         ("∂x'/∂ψ with the wrong sign", lambda x, dt: _jacobian(x, dt, sign=1.0)),
+        ("the ½ of ½ a_x Δt² forgotten", lambda x, dt: _jacobian(x, dt, half=1.0)),
     ],
     "fused_state_indices": [
         ("the config's own indices", lambda config: [i for i, on in enumerate(config) if on]),
+        ("a state with vy", lambda config: [
+            i for i, name in enumerate(("x", "y", "yaw", "vx", "vy", "vyaw", "ax"))
+            if config[CONFIG.index(name)]]),
+    ],
+}
+
+
+def _planar_f(x, dt):
+    """The planar model's f (complex-safe: no wrapping)."""
+    px, py, yaw, vx, w, ax = x
+    s = vx * dt + 0.5 * ax * dt * dt
+    return np.array([px + s * np.cos(yaw), py + s * np.sin(yaw), yaw + w * dt, vx + ax * dt,
+                     w, ax])
+
+
+def _jacobian_complex_step(x, dt, h=1e-30):
+    """∂f/∂x by complex steps: exact to rounding, an independent check of the algebra."""
+    x = np.asarray(x, dtype=complex)
+    return np.column_stack([_planar_f(x + 1j * h * e, dt).imag / h for e in np.eye(6)])
+
+
+HONEST["lab05"] = {
+    "kf_predict": [
+        ("np.linalg.multi_dot", lambda x, P, F, Q: (np.asarray(F) @ np.asarray(x),
+                                                    np.linalg.multi_dot([F, P, np.transpose(F)])
+                                                    + Q)),
+        ("np.einsum", lambda x, P, F, Q: (np.einsum("ij,j->i", F, x),
+                                          np.einsum("ik,kl,jl->ij", F, P, F) + Q)),
+    ],
+    "joseph_update": [
+        ("np.linalg.solve for the gain", lambda x, P, z, H, R: _update_solved(x, P, z, H, R)),
+    ],
+    "angle_residual": [
+        ("atan2(sin d, cos d)", lambda z, zh: math.atan2(math.sin(z - zh), math.cos(z - zh))),
+        ("math.remainder(d, 2π)", lambda z, zh: math.remainder(z - zh, 2 * math.pi)),
+        ("np.angle of a unit complex number", lambda z, zh: float(np.angle(np.exp(1j * (z - zh))))),
+        ("(d + π) mod 2π − π", lambda z, zh: (z - zh + math.pi) % (2 * math.pi) - math.pi),
+    ],
+    "nis": [
+        ("y @ inv(S) @ y", lambda y, S: float(np.asarray(y) @ np.linalg.inv(S) @ np.asarray(y))),
+        ("a Cholesky solve", lambda y, S: float(np.sum(np.linalg.solve(np.linalg.cholesky(S),
+                                                                       y) ** 2))),
+    ],
+    "planar_jacobian": [
+        ("complex-step differentiation of f", _jacobian_complex_step),
+    ],
+    "fused_state_indices": [
+        ("a dict from field to state index",
+         lambda config: sorted({"x": 0, "y": 1, "yaw": 2, "vx": 3, "vyaw": 4, "ax": 5}[name]
+                               for name, on in zip(CONFIG, config, strict=True) if on and name in
+                               ("x", "y", "yaw", "vx", "vyaw", "ax"))),
+        ("np.flatnonzero on the six columns",
+         lambda config: np.flatnonzero(np.asarray(config)[[0, 1, 5, 6, 11, 12]]).tolist()),
     ],
 }
 
@@ -1246,10 +1755,25 @@ CATALOGUE = {"lab01": LAB01, "lab02": LAB02, "lab03": LAB03, "lab04": LAB04, "la
              "lab11": {"make_controller": []}}
 COINCIDENT: dict[tuple[str, str], set[str]] = {
     # mistakes that give the same numbers on some cases: the check names both there
+    # Lab 01: backwards, int(x + 0.5) truncates like int(x) wherever x's fraction is ≥ .5;
+    # the paper's factor ignores counts_per_rev too, and often rounds to the same unit
+    ("rpm_to_drive_units", "truncation"): {"int(x + 0.5)"},
+    ("rpm_to_drive_units", "int(x + 0.5)"): {"truncation"},
+    ("rpm_to_drive_units", "the paper's rounded factor 43.7"):
+        {"400 counts whatever counts_per_rev says"},
+    ("rpm_to_drive_units", "400 counts whatever counts_per_rev says"):
+        {"the paper's rounded factor 43.7"},
+    # Lab 04: an error pushing further into saturation is frozen, as a reversed error is
+    # wherever the true one brings the output back (and the missing dt can land there too)
+    ("pi_step", "the integral without dt"): {"the error as measurement − set-point"},
+    ("pi_step", "the error as measurement − set-point"): {"the integral without dt"},
     ("tick_delta", "a plain difference"): {"the increment modulo 2**bits, never negative"},
     ("tick_delta", "the increment modulo 2**bits, never negative"): {"a plain difference"},
     ("angle_residual", "an unwrapped difference"): {"a difference wrapped to [0, 2π)"},
-    ("angle_residual", "a difference wrapped to [0, 2π)"): {"an unwrapped difference"},
+    ("angle_residual", "a difference wrapped to [0, 2π)"): {"an unwrapped difference",
+                                                            "a single ±2π correction"},
+    # between 3π and 4π one turn off is what [0, 2π) gives too
+    ("angle_residual", "a single ±2π correction"): {"a difference wrapped to [0, 2π)"},
     # Lab 09: both unit slips leave only the obstacle when the costs decay within a cell;
     # a transposed grid can block the path that a unit diagonal would have found
     ("inflate", "the inflation radius in metres against distances in cells"):
