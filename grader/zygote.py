@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib
+import importlib.util  # here, not in find_spec: importing it there would ask find_spec again
 import json
 import os
 import resource
@@ -85,8 +86,6 @@ class _StrippedFinder:
         self.sources = sources
 
     def find_spec(self, name: str, path: Any = None, target: Any = None) -> Any:
-        import importlib.util
-
         entry = self.sources.get(name)
         if entry is None:
             return None
