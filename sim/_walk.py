@@ -383,19 +383,22 @@ def walk(positions: FloatArray, body_velocities: FloatArray, speed: FloatArray,
          routes: FloatArray, route_start: IntArray, route_length: IntArray, target: IntArray,
          direction: IntArray, blocked: FloatArray, alcove: IntArray, stage: IntArray,
          robots: FloatArray, velocities: FloatArray, outlines: FloatArray, corners: IntArray,
-         widths: FloatArray, segments: FloatArray, alcoves: FloatArray
+         widths: FloatArray, segments: FloatArray, alcoves: FloatArray, walkers: int
          ) -> FloatArray:  # pragma: no cover - compiled
-    """Every person's walking velocity (P, 2) [m/s] for the next tenth of a second, and their
-    states (``target``, ``direction``, ``blocked``, ``alcove``, ``stage``) updated in place.
+    """Every walking person's velocity (P, 2) [m/s] for the next tenth of a second, and
+    their states (``target``, ``direction``, ``blocked``, ``alcove``, ``stage``) updated in
+    place.
 
-    ``positions``, ``body_velocities`` (P, 2): where the people are and how fast they really
-    move; ``routes`` (all routes' points stacked), ``route_start``, ``route_length``: each
-    person's route; ``robots``, ``velocities`` (R, 2): the robots' positions and world
-    velocities; ``outlines`` (R, K, 2) with ``corners`` (R,) used rows: their footprints in
-    the world; ``widths`` (R,): their footprints' widths; ``segments`` (M, 4): every wall;
-    ``alcoves`` (A, 4): the world's alcoves.
+    ``positions`` (P + B, 2): where the ``walkers`` = P walking people are, then the B
+    bystanders (a scenario moves them; the walkers pass them as they pass each other);
+    ``body_velocities`` (P, 2): how fast the walkers really move; ``routes`` (all routes'
+    points stacked), ``route_start``, ``route_length``: each walker's route; ``robots``,
+    ``velocities`` (R, 2): the robots' positions and world velocities; ``outlines``
+    (R, K, 2) with ``corners`` (R,) used rows: their footprints in the world; ``widths``
+    (R,): their footprints' widths; ``segments`` (M, 4): every wall; ``alcoves`` (A, 4):
+    the world's alcoves.
     """
-    n = positions.shape[0]
+    n = walkers
     out = np.zeros((n, 2))
     has_alcoves = alcoves.shape[0] > 0
     for i in range(n):

@@ -559,11 +559,14 @@ class Simulation:
             position, velocity = _body_position(p.cp_body), _body_velocity(p.cp_body)
             where_they_are += (position.x, position.y)
             how_they_move += (velocity.x, velocity.y)
+        for body in self._people_bodies[len(people):]:   # the bystanders, passed like anyone
+            position = _body_position(body)
+            where_they_are += (position.x, position.y)
         positions = np.array(where_they_are).reshape(-1, 2)
         body_velocities = np.array(how_they_move).reshape(-1, 2)
         routes, start, length = self._routes
-        new_speed = _walk_rules.arrive(positions, routes, start, length, crowd.alcove,
-                                       crowd.target, crowd.direction)
+        new_speed = _walk_rules.arrive(positions[:len(people)], routes, start, length,
+                                       crowd.alcove, crowd.target, crowd.direction)
         for i in new_speed.tolist():                # drawn in order, as the rules do
             crowd.speed[i] = float(self.rng.uniform(0.8, 1.4))
         corners, widths, most = self._footprints
@@ -579,7 +582,8 @@ class Simulation:
         walking = _walk_rules.walk(positions, body_velocities, crowd.speed, routes, start,
                                    length, crowd.target, crowd.direction, crowd.blocked,
                                    crowd.alcove, crowd.stage, where, moving, outlines, corners,
-                                   widths, self.world.segments, self.world.alcoves)
+                                   widths, self.world.segments, self.world.alcoves,
+                                   len(people))
         for i, (vx, vy) in enumerate(walking.tolist()):
             _set_body_velocity(people[i].cp_ground, (vx, vy))
 
@@ -771,10 +775,9 @@ class Simulation:
         """Nor into each other: someone ahead within ±45° is passed on the right, and the
         stopping rule of :func:`_keep_clear` holds between two people (each brakes for their
         part)."""
-        for q in self.people:
-            if q is p:
-                continue
-            qx, qy = q.body.position
+        others = [q.body.position for q in self.people if q is not p]
+        others += [(v.x, v.y) for v in map(_body_position, self._people_bodies[len(self.people):])]
+        for qx, qy in others:                        # the bystanders too
             ax, ay = px - qx, py - qy
             gap = math.hypot(ax, ay)
             if 1e-6 < gap < 1.5:

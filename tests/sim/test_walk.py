@@ -54,7 +54,16 @@ SCENES = {
     # the office: five people passing each other and a Uiabot weaving among them, held up
     "office": (lambda: Simulation("office", "uiabot", seed=4, people=5),
                lambda t: twist(0.4, 0.8 * math.sin(0.4 * t)), 40.0),
+    # Lab 11's bystander: standing in the corridor, passed by the walker (the robot waits)
+    "bystander": (lambda: with_bystander(door_world(), (9.5, 0.75)),
+                  lambda t: twist(0.0), 15.0),
 }
+
+
+def with_bystander(world, where):
+    sim = Simulation(world, "igv", seed=2, people=1, start=[0.0, 0.75, 0.0])
+    sim.add_bystander(where)
+    return sim
 
 
 @pytest.mark.parametrize("scene", sorted(SCENES))
@@ -77,6 +86,8 @@ def test_compiled_people_walk_exactly_as_the_python_rules(scene, monkeypatch):
             for a, b in zip(compiled.people, reference.people, strict=True):
                 assert tuple(a.ground.velocity) == tuple(b.ground.velocity), (k, a.index)
                 assert tuple(a.body.position) == tuple(b.body.position), (k, a.index)
+            np.testing.assert_array_equal(compiled.people_positions(),
+                                          reference.people_positions())
             for name in ("target", "direction", "speed", "blocked", "alcove", "stage"):
                 np.testing.assert_array_equal(getattr(compiled._crowd, name),
                                               getattr(reference._crowd, name), err_msg=name)
@@ -85,8 +96,32 @@ def test_compiled_people_walk_exactly_as_the_python_rules(scene, monkeypatch):
     assert compiled.collisions == reference.collisions
     if scene == "door":
         assert seen_stages >= {1, 2, 3, 4}       # into the door, waiting, back out
-    else:
+    elif scene != "bystander":
         assert held                              # someone was held up by the robot
+
+
+def test_a_walker_steps_round_a_bystander_as_round_anyone():
+    """A bystander (Lab 11's person in a doorway) moves only when the scenario says, but the
+    walking people treat them as one of their own: a walker coming down the corridor at its
+    pace of 1.16 m/s is already aside and slower when it comes within 0.7 m of them (it
+    passes on its right, then walks on), rather than walking on into them."""
+    for compiled in (True, False):
+        sim = with_bystander(door_world(), (9.5, 0.75))
+        sim.compiled_walk = compiled
+        sim.step(twist(0.0))
+        before = sim.people_positions()[0].copy()
+        closest, passed = np.inf, False
+        for _ in range(1500):
+            sim.step()
+            walker, bystander = sim.people_positions()
+            gap = float(np.hypot(*(walker - bystander)))
+            if gap < 0.7 and closest >= 0.7:          # the first step within 0.7 m
+                toward = float(np.dot(walker - before, bystander - walker)) / gap / 0.01
+                assert abs(walker[1] - 0.75) > 0.1 and toward < 0.6, (walker, toward)
+            closest, before = min(closest, gap), walker.copy()
+            passed = passed or walker[0] < bystander[0] - 1.0
+        assert closest < 0.7 and passed
+        assert np.allclose(bystander, (9.5, 0.75), atol=0.05)   # nudged at most
 
 
 def test_direct_chipmunk_reads_agree_with_pymunks_properties():
