@@ -775,7 +775,7 @@ class Simulation:
         """Nor into each other: someone ahead within ±45° is passed on the right, and the
         stopping rule of :func:`_keep_clear` holds between two people (each brakes for their
         part)."""
-        others = [q.body.position for q in self.people if q is not p]
+        others: list[tuple[float, float]] = [q.body.position for q in self.people if q is not p]
         others += [(v.x, v.y) for v in map(_body_position, self._people_bodies[len(self.people):])]
         for qx, qy in others:                        # the bystanders too
             ax, ay = px - qx, py - qy
