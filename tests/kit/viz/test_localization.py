@@ -23,10 +23,15 @@ def _animation(frames: int):
 
 def test_the_html_holds_every_frame_and_a_bar_counts_them(monkeypatch, capsys):
     monkeypatch.delenv("KIT_FAST", raising=False)
+    # tqdm redraws at most every 0.1 s by default, so which counts appear depends on the
+    # machine's speed; redrawing on every frame (tqdm's own environment overrides) makes
+    # the bar's every step visible on any machine
+    monkeypatch.setenv("TQDM_MININTERVAL", "0")
+    monkeypatch.setenv("TQDM_MINITERS", "1")
     html = viz.animation_html(_animation(4), desc="drawing")
     assert html.count("data:image/png;base64") == 4
     err = capsys.readouterr().err
-    assert "drawing" in err and "4/4" in err
+    assert "drawing" in err and all(f"{i}/4" in err for i in range(5))
 
 
 def test_no_bar_under_kit_fast(monkeypatch, capsys):
