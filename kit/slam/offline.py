@@ -65,8 +65,7 @@ def read_bag_recording(path: str | Path, scan_topic: str = "/scan",
         No scans or no odometry on the topics, or no transform from the odometry's child
         frame to the scan's frame.
     """
-    # the bag reader lives in sim.bag until it moves to kit.bag
-    from sim.bag import read_bag
+    from kit.bag import read_bag  # rosbags is imported only when a bag is read
 
     tree = tf.TransformTree(cache_time=1e9)
     scans: list[msgs.LaserScan] = []
