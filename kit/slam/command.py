@@ -2,9 +2,11 @@
 
 Writes into ``DIR``: ``map.yaml`` + ``map.pgm`` (a map_server map) and ``map.png``,
 ``trajectory.csv`` (``stamp,x,y,yaw`` of every scan's optimised ``T_map_base``; a CARMEN
-log's stamps are its IPC timestamps), ``graph.g2o`` (the optimised pose graph) and, with
-``--relations``, ``errors.csv`` (the benchmark's metric per relation) and its summary on the
-terminal.
+log's stamps are its IPC timestamps), ``graph.g2o`` (the optimised pose graph),
+``closures.csv`` (every loop-closure attempt, accepted or not, with its figures and the
+reason it was rejected), ``scans.csv`` (how each scan's pose was found and how many of its
+returns were dropped as moving things) and, with ``--relations``, ``errors.csv`` (the
+benchmark's metric per relation) and its summary on the terminal.
 """
 
 from __future__ import annotations
@@ -75,6 +77,44 @@ def write_png(grid: np.ndarray, path: Path) -> None:
     Image.fromarray(np.flipud(image)).save(path)
 
 
+def write_closures(slam: Slam, path: Path) -> None:
+    """Every loop-closure attempt: the nodes (and their scans' stamps), accepted or not and
+    why, the correlative response, the supports, the correction asked of the node and the
+    edge's χ² after optimisation (empty where a figure was not reached)."""
+    def num(v: float, digits: int = 4) -> str:
+        return "" if not np.isfinite(v) else f"{v:.{digits}f}"
+
+    stamp = [slam.records[n.scan_index].stamp if n.scan_index < len(slam.records) else np.nan
+             for n in slam.nodes]
+    with path.open("w", encoding="utf-8") as f:
+        f.write("node,node_stamp,candidate,candidate_stamp,reference,accepted,reason,response,"
+                "support,recent_support,shift_x,shift_y,shift_yaw,chi2\n")
+        for c in slam.closures:
+            reason = c.reason.replace(",", ";")
+            f.write(f"{c.node},{num(stamp[c.node], 6)},{c.candidate},"
+                    f"{num(stamp[c.candidate], 6)},{c.reference if c.reference >= 0 else ''},"
+                    f"{int(c.accepted)},{reason},{num(c.response)},{num(c.support)},"
+                    f"{num(c.recent_support)},{num(c.shift[0])},{num(c.shift[1])},"
+                    f"{num(c.shift[2])},{num(c.chi2, 2)}\n")
+
+
+def write_scans(slam: Slam, path: Path) -> None:
+    """Per scan: its stamp, the node it hangs from, how its pose was found (``icp``,
+    ``search``, ``odometry`` when every match was rejected, ``first``), the returns dropped
+    as moving, and for a node's own scan whether its edge to the previous node is the
+    match's, the odometry's, or the odometry's after the match edge was found inconsistent
+    (``replaced``)."""
+    replaced = set(slam.replaced_matches)
+    node_of_scan = {n.scan_index: k for k, n in enumerate(slam.nodes)}
+    with path.open("w", encoding="utf-8") as f:
+        f.write("stamp,node,matched,moving,edge\n")
+        for s, r in enumerate(slam.records):
+            k = node_of_scan.get(s)
+            edge = "" if k is None or k == 0 else "replaced" if k in replaced else \
+                "odometry" if r.matched == "odometry" else "match"
+            f.write(f"{r.stamp:.6f},{r.anchor},{r.matched},{r.moving},{edge}\n")
+
+
 def _run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     relations = carmen.read_relations(args.relations) if args.relations else None
@@ -90,9 +130,12 @@ def _run(args: argparse.Namespace) -> int:
         for t, (x, y, yaw) in zip(stamps, poses, strict=True):
             f.write(f"{t:.6f},{x:.6f},{y:.6f},{yaw:.6f}\n")
     write_g2o(slam.graph, out / "graph.g2o")
+    write_closures(slam, out / "closures.csv")
+    write_scans(slam, out / "scans.csv")
     print(f"{len(stamps)} scans, {slam.graph.num_nodes} nodes, "
-          f"{len(slam.loop_closures)} loop closures; wrote {out}/map.yaml, map.pgm, map.png, "
-          f"trajectory.csv, graph.g2o")
+          f"{len(slam.loop_closures)} loop closures of {len(slam.closures)} candidates; wrote "
+          f"{out}/map.yaml, map.pgm, map.png, trajectory.csv, graph.g2o, closures.csv, "
+          f"scans.csv")
     if relations is not None:
         errors = evaluate.relation_errors(stamps, poses, relations)
         with (out / "errors.csv").open("w", encoding="utf-8") as f:

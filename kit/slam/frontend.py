@@ -1,25 +1,35 @@
-"""The SLAM front end, in SLAM Toolbox's design (Macenski & Jambrecic, JOSS 2021; Karto).
+"""The SLAM front end, in SLAM Toolbox's design (Macenski & Jambrecic, JOSS 2021; Karto),
+built so that no single bad match can break the map.
 
 For every scan, with the odometry pose it was taken at:
 
 1. **Predict** the scan's pose in ``map`` from the last corrected scan and the odometry since.
-2. **Match** it against the local map — the scans of the last ``local_map_nodes`` nodes at
-   their current poses — by point-to-line ICP with the prediction as a prior
-   (:func:`kit.slam.scan_matching.icp`); a poor match keeps the prediction.
-3. **Add a node** when the robot has travelled ``min_travel`` metres or turned
+2. **Drop what moves**: returns that land where the recent scans have seen free space
+   (:class:`kit.slam.free_space.FreeSpace`) are people and other moving things; they neither
+   drive the match nor enter the map.
+3. **Match** the rest against the local map — the scans of the last ``local_map_nodes`` nodes
+   at their current poses — by point-to-line ICP held by the odometry as a prior
+   (:func:`kit.slam.scan_matching.icp`). A match must pass its gates: enough points paired,
+   small residuals, and a correction the odometry could have made (the Mahalanobis distance
+   of ``match − prediction`` under the odometry's covariance at most ``match_gate``). When it
+   fails them, a correlative search (:mod:`kit.slam.correlative`, which a wrong start cannot
+   trap) looks wider and ICP refines its answer; that answer is taken only if the two
+   matchers agree and it puts clearly more of the scan on the map (``far_match_gain``) than
+   the best fit near the odometry. Otherwise the scan keeps the odometry's prediction.
+4. **Add a node** when the robot has travelled ``min_travel`` metres or turned
    ``min_heading`` radians since the last one: the node's pose is the corrected pose, and an
-   edge to the previous node carries the match's relative pose and information.
-4. **Close loops** from a new node: nodes within ``loop_search_radius`` that were passed at
-   least ``loop_min_travel`` metres of driving ago are candidates; the scans around the
-   nearest one form a reference, the correlative matcher searches a window around the
-   current estimate, and a match whose *response* reaches ``loop_min_response`` and whose
-   covariance stays under ``loop_max_variance`` is refined by ICP and added as an edge (under
-   a Cauchy kernel, so one wrong closure cannot bend the map). The graph is then optimised
-   (Gauss–Newton) and every pose after it follows.
+   edge to the previous node carries the match's relative pose and information (under a
+   Cauchy kernel) — or, when the match was rejected, the odometry's.
+5. **Close loops** from a new node (:mod:`kit.slam.loops`: fit, a second matcher, agreement
+   with the map and with the drift odometry allows), then optimise the graph (Gauss–Newton),
+   and check every edge's χ² afterwards: the worst closure above ``closure_chi2`` is removed,
+   the worst match edge above ``match_chi2`` is replaced by the odometry's edge, and the graph
+   is solved again, until every edge agrees with the rest.
 
 Every scan's pose is kept relative to the node before it, so the trajectory follows the
 optimised graph; :meth:`Slam.occupancy_map` rebuilds the map from the nodes' scans at their
-optimised poses. ``map`` coincides with ``odom`` at the first scan.
+optimised poses, without the returns found to move. ``map`` coincides with ``odom`` at the
+first scan.
 
 Frames: the graph holds ``T_map_base``; scans become points in ``base`` through the fixed
 ``T_base_laser`` (the URDF's laser joint) and, when beam times and odometry are known, are
@@ -36,12 +46,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry, mapping, msgs, perception
+from kit.slam import correlative
 from kit.slam import scan_matching as sm
+from kit.slam.free_space import FreeSpace, laser_beams
+from kit.slam.loops import LoopClosure, agree, match_loop, support
 from kit.slam.pose_graph import PoseGraph
 
-__all__ = ["ScanRecord", "Slam", "SlamConfig", "map_beams", "relative_covariance", "scan_points"]
+__all__ = ["LoopClosure", "ScanRecord", "Slam", "SlamConfig", "map_beams", "relative_covariance",
+           "scan_points"]
 
 FloatArray = NDArray[np.float64]
+CHI2_3DOF_999 = 16.27
+"""χ² with 3 degrees of freedom that a consistent 3-vector exceeds with probability 0.1 %."""
 
 
 @dataclass(frozen=True)
@@ -62,11 +78,15 @@ class SlamConfig:
     min_inliers: float = 0.3
     """A match pairing fewer of its points than this fraction is not trusted."""
     poor_rmse: float = 0.08
-    """An ICP match that did not converge, or whose residuals' RMS exceeds this [m], is
-    searched again correlatively; the search's answer is kept when it puts 5 % more of the
-    scan's points within 0.1 m of the local map."""
+    """A match whose residuals' RMS exceeds this [m] is not trusted."""
+    match_gate: float = CHI2_3DOF_999
+    """A match may move the prediction by at most this Mahalanobis distance² under the
+    odometry's covariance, or it must be confirmed by the wider search."""
+    far_match_gain: float = 0.1
+    """A match far from the odometry is taken only if it puts this much larger a share of
+    the scan's points within 0.1 m of the local map than the best fit near the odometry."""
     search_linear_window: float = 0.3
-    """Half-width [m] of that correlative search around the prediction."""
+    """Half-width [m] of the correlative search around the prediction."""
     search_angular_window: float = math.radians(20.0)
     """Half-width [rad] of that search (odometry's heading can jump this much)."""
     search_prior_scale: float = 0.01
@@ -76,14 +96,35 @@ class SlamConfig:
     ``α_xy d + σ_xy`` [m] and ``α_θ |Δθ| + σ_θ`` [rad] (d the distance driven); an assumption."""
     min_edge_sigma: tuple[float, float] = (0.005, math.radians(0.2))
     """Floor on an edge's standard deviation (m, rad): matches are not perfect."""
+    match_covariance_scale: float = 10.0
+    """ICP's covariance counts every point's residual as an independent measurement;
+    neighbouring points on one wall are not, so a match's (and a closure's) covariance is
+    scaled by this before it weighs an edge (an assumption: on the Intel log the matches err
+    2.4–4 times the unscaled standard deviations)."""
+    match_kernel_delta: float = 3.0
+    """Cauchy kernel width on match edges (in √χ² units)."""
+    odometry_kernel_delta: float = 3.0
+    """Cauchy kernel width on the odometry's edges, which every pair of consecutive nodes
+    has beside the match's (wheel odometry slips and jumps)."""
+    match_chi2: float = 10 * CHI2_3DOF_999
+    """After an optimisation a match edge whose χ² exceeds this is replaced by the
+    odometry's edge."""
+    dynamic_margin: float = 0.15
+    """A return is taken for something moving when every cell within this [m] of it has
+    been seen free by the last scans (0 turns the test off)."""
+    dynamic_nodes: int = 20
+    """Nodes whose beams make up the free space."""
+    dynamic_range: float = 10.0
+    """Beams clear free space up to this range [m]."""
     loop_search_radius: float = 4.0
     """Loop-closure candidates lie within this distance [m] (``loop_search_maximum_distance``)."""
     loop_min_travel: float = 10.0
     """… and were passed at least this much driving [m] ago."""
     loop_chain: int = 10
     """Nodes on each side of the candidate whose scans form the loop's reference."""
-    loop_linear_window: float = 1.0
-    """Half-width of the correlative search [m]."""
+    loop_linear_window: float = 2.0
+    """Half-width of the correlative search [m]: the drift since the candidate (SLAM
+    Toolbox's ``loop_search_space_dimension`` of 8 m spans ±4 m)."""
     loop_angular_window: float = 0.3
     """Half-width of the correlative search [rad]."""
     loop_resolution: float = 0.05
@@ -94,13 +135,34 @@ class SlamConfig:
     """Maximum positional variance [m²] of an accepted match."""
     loop_min_support: float = 0.7
     """Share of the scan's points the refined match must put within 0.1 m of the reference."""
+    loop_recent_nodes: int = 4
+    """Nodes before the new one whose scans must agree with the closure too."""
+    loop_min_recent_support: float = 0.5
+    """Share of their points the closure's correction must put within 0.1 m of the
+    reference."""
+    loop_agreement: tuple[float, float] = (0.1, math.radians(2.0))
+    """ICP from the correlative answer must stay within this (m, rad) of it."""
     loop_max_shift: tuple[float, float] = (0.3, 0.03)
     """A closure may move the node by at most ``a + b · d`` metres, ``d`` the driving [m]
     since the candidate: the drift scan matching can have accumulated (an assumption)."""
     loop_max_turn: tuple[float, float] = (math.radians(3.0), math.radians(0.3))
     """… and turn it by at most ``a + b · d`` radians."""
+    loop_gate: float = CHI2_3DOF_999
+    """A closure whose Mahalanobis distance² from the graph's current estimate (under the
+    graph's marginal covariance of the two nodes' relative pose plus the closure's own)
+    exceeds this is *surprising*: it waits for another closure that agrees with it."""
+    loop_consistency: tuple[float, float] = (0.15, math.radians(2.0))
+    """Two closures agree when the loop they make with the graph's estimates between their
+    new nodes and between their old ones closes within this (m, rad)."""
+    loop_confirmations: int = 1
+    """Agreeing closures a closure needs (one more when it is surprising) before all enter
+    the graph together: one scan can look like another place, two in a row rarely do."""
+    loop_pending_nodes: int = 25
+    """Nodes a closure waits for its confirmation."""
     loop_kernel_delta: float = 3.0
     """Cauchy kernel width on loop edges (in √χ² units)."""
+    closure_chi2: float = 2 * CHI2_3DOF_999
+    """After an optimisation a closure whose χ² exceeds this is removed."""
     loop_every: int = 1
     """Look for a loop at every n-th node."""
     loop_cooldown: int = 10
@@ -112,6 +174,11 @@ class SlamConfig:
         if self.max_range <= 0 or self.point_spacing < 0 or not 0 <= self.min_inliers <= 1:
             raise ValueError("max_range must be positive, point_spacing >= 0, min_inliers in "
                              "[0, 1]")
+        if self.match_gate <= 0 or self.match_chi2 <= 0 or self.closure_chi2 <= 0:
+            raise ValueError("match_gate, match_chi2 and closure_chi2 must be positive")
+        if self.dynamic_margin < 0 or self.dynamic_nodes < 1 or self.dynamic_range <= 0:
+            raise ValueError("dynamic_margin must be >= 0, dynamic_nodes and dynamic_range "
+                             "positive")
 
 
 @dataclass(frozen=True)
@@ -124,6 +191,11 @@ class ScanRecord:
     """``T_anchor_base`` of this scan."""
     odometry: FloatArray
     """``T_odom_base`` of this scan."""
+    matched: str = "icp"
+    """How its pose was found: ``"icp"``, ``"search"`` (the wider correlative search),
+    ``"odometry"`` (every match was rejected), or ``"first"``."""
+    moving: int = 0
+    """Returns dropped as moving things."""
 
 
 def thin(points: FloatArray, spacing: float) -> FloatArray:
@@ -181,11 +253,19 @@ def relative_covariance(anchor: ArrayLike, covariance: ArrayLike) -> FloatArray:
 class _Node:
     scan_index: int
     points: FloatArray
-    """Thinned points in ``base``."""
+    """Thinned points in ``base``, without the returns found to move."""
     travelled: float
     """Distance driven from the start to this node [m]."""
     scan: msgs.LaserScan | None
     beam_motion: FloatArray | None
+    odometry: FloatArray = field(default_factory=lambda: np.zeros(3))
+    """``T_odom_base`` at this node."""
+    turned: float = 0.0
+    """Turning [rad] from the start to this node, summed."""
+    moving: NDArray[np.bool_] | None = None
+    """Per beam of ``scan``: a return found to move (kept out of the map)."""
+    beams: tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]] | None = None
+    """Every beam's end in ``base``, and which are valid returns and max-range beams."""
     normals: FloatArray | None = None
     """Normals of the usable ``points[usable]`` (estimated once, from this scan alone)."""
     usable: NDArray[np.bool_] | None = None
@@ -202,6 +282,60 @@ class _Node:
         return self.points[self.usable], self.normals
 
 
+@dataclass(frozen=True)
+class _Match:
+    pose: FloatArray
+    covariance: FloatArray
+    how: str
+    """"icp", "search" or "odometry"."""
+    prior: FloatArray | None = None
+    """The odometry prior's information the match was held by (its covariance includes
+    it)."""
+
+    def scan_covariance(self) -> FloatArray:
+        """The covariance of what the scan alone says: the prior's information taken back
+        out of the match's (``(Σ⁻¹ − Ω_p)⁻¹``), kept positive definite."""
+        info = np.linalg.inv(self.covariance)
+        if self.prior is not None:
+            info = info - self.prior
+        info = 0.5 * (info + info.T)
+        w, v = np.linalg.eigh(info)
+        w = np.maximum(w, 1e-6)
+        return np.asarray((v / w) @ v.T, dtype=np.float64)
+
+
+def _beam_ends(scan: msgs.LaserScan, base_to_laser: ArrayLike, beam_motion: FloatArray | None
+               ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
+    """Every beam's end in ``base`` at the scan's stamp (``(N, 2)``, de-skewed like
+    :func:`scan_points`): at its range for a valid return, at ``range_max`` for a beam that
+    saw nothing (REP-117), NaN otherwise; and the masks of valid and max-range beams."""
+    r = np.asarray(scan.ranges, dtype=np.float64)
+    valid = perception.valid_returns(scan)
+    clear = perception.max_range_beams(scan)
+    length = np.where(valid, np.nan_to_num(r), np.where(clear, float(scan.range_max), np.nan))
+    a = perception.beam_angles(scan)
+    local = np.column_stack([length * np.cos(a), length * np.sin(a)])
+    mount = geometry.check_pose(base_to_laser)
+    if beam_motion is None:
+        return geometry.transform_points(mount, local), valid, clear
+    motion = np.asarray(beam_motion, dtype=np.float64)
+    if motion.shape != (len(r), 3):
+        raise ValueError(f"beam_motion needs one pose per beam, shape ({len(r)}, 3); got "
+                         f"{motion.shape}")
+    sensor = geometry.compose(motion, mount)
+    c, s = np.cos(sensor[:, 2]), np.sin(sensor[:, 2])
+    ends = np.column_stack([sensor[:, 0] + c * local[:, 0] - s * local[:, 1],
+                            sensor[:, 1] + s * local[:, 0] + c * local[:, 1]])
+    return ends, valid, clear
+
+
+def _solve(graph: PoseGraph, iterations: int, tolerance: float) -> None:
+    """Gauss–Newton first with every kernel off (plain least squares, whose basin is wide
+    enough for a closure that moves the map far), then with the kernels on."""
+    graph.optimize("gn", max_iterations=iterations, tolerance=tolerance, robust=False)
+    graph.optimize("gn", max_iterations=iterations, tolerance=tolerance)
+
+
 class Slam:
     """Online graph SLAM: feed :meth:`add_scan` one scan and its odometry at a time.
 
@@ -211,24 +345,54 @@ class Slam:
         ``T_base_laser`` (x, y, θ) of the scanner on the robot.
     config
         :class:`SlamConfig`.
+
+    Attributes
+    ----------
+    graph : PoseGraph
+        The nodes (``T_map_base`` of the scans that became nodes) and their edges.
+    records : list of ScanRecord
+        Every scan's place in the trajectory, and how its pose was found.
+    closures : list of LoopClosure
+        Every loop-closure attempt, accepted or not, with its figures and reason.
+    replaced_matches : list of int
+        Nodes whose match edge the back end replaced by the odometry's after an
+        optimisation (its χ² above ``match_chi2``).
     """
+
+    MOVING_SHARE = 0.3
+    """When more of a scan than this looks like moving things, the pose it was tested at is
+    more likely off than the world full of people: nothing is dropped."""
 
     def __init__(self, base_to_laser: ArrayLike = (0.0, 0.0, 0.0),
                  config: SlamConfig | None = None) -> None:
         self.config = config or SlamConfig()
+        cfg = self.config
         self.base_to_laser = geometry.check_pose(base_to_laser, "base_to_laser").copy()
         self.graph = PoseGraph()
         self.records: list[ScanRecord] = []
         self.nodes: list[_Node] = []
-        self.loop_closures: list[tuple[int, int]] = []
+        self.closures: list[LoopClosure] = []
+        self.replaced_matches: list[int] = []
+        self._edge_kind: list[str] = []    # per graph edge: "match", "odometry", "closure"
+        self._edge_closure: list[int] = []  # its index in self.closures (closures), else −1
         self._last_pose: FloatArray | None = None   # T_map_base of the last scan
         self._last_odom: FloatArray | None = None
         self._travelled = 0.0
+        self._turned = 0.0
         self._reference: sm.PointCloudReference | None = None
         self._reference_key: tuple[int, int] = (-1, -1)
-        self._field: tuple[tuple[int, int], FloatArray, sm.LikelihoodField] | None = None
+        self._field: tuple[tuple[int, int], FloatArray, correlative.LikelihoodField] | None = None
         self._optimisations = 0
         self._last_closure = -(10**9)
+        self._free = FreeSpace(0.05, cfg.dynamic_margin, 0.25, cfg.dynamic_range) \
+            if cfg.dynamic_margin > 0 else None
+        self._pending: list[LoopClosure] = []   # closures awaiting confirmation
+        self._groups = 0                         # closure groups accepted so far
+
+    @property
+    def loop_closures(self) -> list[tuple[int, int]]:
+        """``(reference node, node)`` of every closure in the graph now."""
+        return [(c.reference, c.node) for c in self.closures if c.accepted]
 
     # ------------------------------------------------------------------ the loop
     def add_scan(self, scan: msgs.LaserScan, odometry: ArrayLike, stamp: float | None = None,
@@ -244,30 +408,50 @@ class Slam:
             raise ValueError(f"odometry is one pose (x, y, θ); got shape {odom.shape}")
         t = scan.header.stamp.to_sec() if stamp is None else float(stamp)
         cfg = self.config
-        points = thin(scan_points(scan, self.base_to_laser, beam_motion, cfg.max_range),
-                      cfg.point_spacing)
+        ends, valid, clear = _beam_ends(scan, self.base_to_laser, beam_motion)
+        r = np.asarray(scan.ranges, dtype=np.float64)
+        usable = valid & (np.nan_to_num(r) <= cfg.max_range)
+        full = ends[usable]
         if self._last_pose is None or self._last_odom is None:
-            return self._first(scan, odom, t, points, beam_motion)
+            return self._first(scan, odom, t, (ends, valid, clear), beam_motion)
         step = geometry.relative(self._last_odom, odom)
         self._travelled += float(np.hypot(step[0], step[1]))
+        self._turned += abs(float(step[2]))
         predicted = geometry.compose(self._last_pose, step)
-        pose, covariance = self._match(points, predicted, step)
+        moving = self._moving(full, predicted)
+        points = thin(full[~moving], cfg.point_spacing)
+        match = self._match(points, predicted, step)
+        again = self._moving(full, match.pose)
+        if np.any(again & ~moving):
+            moving |= again
+            points = thin(full[~moving], cfg.point_spacing)
+            match = self._refine(points, match, step)
         anchor = len(self.nodes) - 1
-        node_pose = self.graph.poses[anchor]
-        since = geometry.relative(node_pose, pose)
+        since = geometry.relative(self.graph.poses[anchor], match.pose)
+        pose = match.pose
         if math.hypot(since[0], since[1]) >= cfg.min_travel or abs(since[2]) >= cfg.min_heading:
-            anchor = self._add_node(scan, pose, covariance, points, beam_motion, anchor)
+            beam_moving = np.zeros(len(r), dtype=bool)
+            beam_moving[np.flatnonzero(usable)[moving]] = True
+            anchor = self._add_node(scan, match, points, (ends, valid, clear), beam_moving,
+                                    beam_motion, odom, anchor)
             pose = self.graph.poses[anchor]
             since = np.zeros(3)
-        self.records.append(ScanRecord(t, anchor, since, odom.copy()))
+        self.records.append(ScanRecord(t, anchor, since, odom.copy(), match.how,
+                                       int(moving.sum())))
         self._last_pose, self._last_odom = pose, odom.copy()
         return pose
 
-    def _first(self, scan: msgs.LaserScan, odom: FloatArray, t: float, points: FloatArray,
+    def _first(self, scan: msgs.LaserScan, odom: FloatArray, t: float,
+               beams: tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]],
                beam_motion: FloatArray | None) -> FloatArray:
+        ends, valid, _ = beams
+        r = np.nan_to_num(np.asarray(scan.ranges, dtype=np.float64))
+        points = thin(ends[valid & (r <= self.config.max_range)], self.config.point_spacing)
         self.graph.add_node(odom)
-        self.nodes.append(_Node(0, points, 0.0, scan, beam_motion))
-        self.records.append(ScanRecord(t, 0, np.zeros(3), odom.copy()))
+        self.nodes.append(_Node(0, points, 0.0, scan, beam_motion, odom.copy(), 0.0,
+                                np.zeros(len(r), dtype=bool), beams))
+        self._insert_free(0)
+        self.records.append(ScanRecord(t, 0, np.zeros(3), odom.copy(), "first"))
         self._last_pose, self._last_odom = odom.copy(), odom.copy()
         return odom.copy()
 
@@ -278,34 +462,88 @@ class Slam:
         # isotropic in x and y, so the same in the map frame as in the robot's
         return np.diag([1 / sd_xy**2, 1 / sd_xy**2, 1 / sd_th**2])
 
-    def _match(self, points: FloatArray, predicted: FloatArray, step: FloatArray
-               ) -> tuple[FloatArray, FloatArray]:
-        """ICP of the scan against the local map, from and held by the prediction; when that
-        match looks poor, a correlative search around the prediction (which a wrong start
-        cannot trap) followed by ICP from its answer, keeping the better of the two."""
-        omega = self._prior_information(step)
-        ref = self._local_reference()
-        fallback = (predicted, np.asarray(np.linalg.inv(omega), dtype=np.float64))
-        if ref is None or len(points) < 10:
-            return fallback
-        result = sm.icp(points, ref, predicted, omega)
-        if result.converged and result.rmse <= self.config.poor_rmse:
-            return result.pose, result.covariance
-        support = _support(points, ref, result.pose)
-        field = self._local_field(ref, predicted)
-        if field is not None:
-            cfg = self.config
-            coarse = sm.correlative_match(points, field, predicted, cfg.search_linear_window,
-                                          cfg.search_angular_window, math.radians(0.5))
-            second = sm.icp(points, ref, coarse.pose, omega * cfg.search_prior_scale)
-            if _support(points, ref, second.pose) > support + 0.05:
-                result = second
-        if result.inlier_fraction < self.config.min_inliers:
-            return fallback
-        return result.pose, result.covariance
+    def _fits(self, result: sm.MatchResult) -> bool:
+        """The fit gates: enough points paired, residuals small (an ICP that ends moving back
+        and forth between two pairings by less than a millimetre still fits)."""
+        return result.inlier_fraction >= self.config.min_inliers and \
+            result.rmse <= self.config.poor_rmse and result.iterations > 0
 
+    def _match(self, points: FloatArray, predicted: FloatArray, step: FloatArray) -> _Match:
+        """The scan's pose: ICP held by the odometry when it passes the gates, else the wider
+        search's answer when both matchers agree and it fits clearly better than the
+        odometry, else the odometry's prediction."""
+        cfg = self.config
+        omega = self._prior_information(step)
+        odometry = _Match(predicted, np.asarray(np.linalg.inv(omega)), "odometry")
+        ref = self._local_reference()
+        if ref is None or len(points) < 10:
+            return odometry
+        near = sm.icp(points, ref, predicted, omega)
+        d = near.pose - predicted
+        d[2] = float(geometry.wrap_angle(d[2]))
+        if self._fits(near) and float(d @ omega @ d) <= cfg.match_gate:
+            return _Match(near.pose, near.covariance, "icp", omega)
+        field_ = self._local_field(ref, predicted)
+        if field_ is None:
+            return odometry
+        linear, angular = cfg.search_linear_window, cfg.search_angular_window
+        coarse = correlative.correlative_match(points, field_, predicted, linear, angular,
+                                               math.radians(0.5), penalty=0.1)
+        off = coarse.pose - predicted
+        if max(abs(off[0]), abs(off[1])) >= linear - 1.5 * field_.resolution or \
+                abs(float(geometry.wrap_angle(off[2]))) >= angular - math.radians(1.0):
+            # the best on the window's edge may lie beyond it (odometry can jump 0.7 m and
+            # 70° between two scans): look three times as far and four times as wide
+            coarse = correlative.correlative_match(points, field_, predicted, 3 * linear,
+                                                   min(4 * angular, math.pi),
+                                                   math.radians(0.5), penalty=0.1)
+        far = sm.icp(points, ref, coarse.pose, omega * cfg.search_prior_scale)
+        apart = geometry.relative(coarse.pose, far.pose)
+        if math.hypot(apart[0], apart[1]) > 2.5 * field_.resolution or \
+                abs(apart[2]) > math.radians(2.0):
+            # ICP walked off: a second correlative look where it ended must find it there
+            coarse = correlative.correlative_match(points, field_, far.pose,
+                                                   4 * field_.resolution, math.radians(4.0),
+                                                   math.radians(0.5))
+            apart = geometry.relative(coarse.pose, far.pose)
+        agree = math.hypot(apart[0], apart[1]) <= 2.5 * field_.resolution and \
+            abs(apart[2]) <= math.radians(2.0)
+        # a match away from the odometry must explain the scan clearly better than the
+        # odometry's own prediction does (and the search's answer better than ICP's too)
+        gain = cfg.far_match_gain
+        bar = support(points, ref, predicted) + gain
+        s_near = support(points, ref, near.pose) if self._fits(near) else -1.0
+        s_far = support(points, ref, far.pose) if self._fits(far) and agree else -1.0
+        if s_far >= max(bar, s_near + gain):
+            return _Match(far.pose, far.covariance, "search", omega * cfg.search_prior_scale)
+        if s_near >= bar:
+            return _Match(near.pose, near.covariance, "icp", omega)
+        return odometry
+
+    def _refine(self, points: FloatArray, match: _Match, step: FloatArray) -> _Match:
+        """ICP again from ``match`` once more returns were found to move."""
+        ref = self._local_reference()
+        if match.how == "odometry" or ref is None or len(points) < 10:
+            return match
+        omega = self._prior_information(step)
+        if match.how == "search":
+            omega = omega * self.config.search_prior_scale
+        result = sm.icp(points, ref, match.pose, omega)
+        return _Match(result.pose, result.covariance, match.how, omega) \
+            if self._fits(result) else match
+
+    def _moving(self, points: FloatArray, pose: FloatArray) -> NDArray[np.bool_]:
+        """Which ``points`` (``base``) at ``pose`` lie in free space the recent scans saw."""
+        if self._free is None or len(points) == 0:
+            return np.zeros(len(points), dtype=bool)
+        moving = self._free.moving(geometry.transform_points(pose, points))
+        if moving.mean() > self.MOVING_SHARE:
+            return np.zeros(len(points), dtype=bool)
+        return moving
+
+    # ------------------------------------------------------------------ the local map
     def _local_field(self, ref: sm.PointCloudReference, around: FloatArray
-                     ) -> sm.LikelihoodField | None:
+                     ) -> correlative.LikelihoodField | None:
         """The local map's likelihood field within ``max_range`` of ``around`` (cached while
         the local map stays)."""
         cached = self._field
@@ -316,10 +554,10 @@ class Slam:
         near = ref.points[np.hypot(*(ref.points - around[:2]).T) <= cfg.max_range]
         if len(near) < 10:
             return None
-        field = sm.likelihood_field(near, cfg.loop_resolution, cfg.loop_resolution,
-                                    margin=cfg.search_linear_window + 0.5)
-        self._field = (self._reference_key, around[:2].copy(), field)
-        return field
+        field_ = correlative.likelihood_field(near, cfg.loop_resolution, cfg.loop_resolution,
+                                              margin=cfg.search_linear_window + 0.5)
+        self._field = (self._reference_key, around[:2].copy(), field_)
+        return field_
 
     def _local_reference(self) -> sm.PointCloudReference | None:
         key = (len(self.nodes), self._optimisations)
@@ -346,27 +584,150 @@ class Slam:
         ref = sm.PointCloudReference(np.vstack(points), self.config.icp, np.vstack(normals))
         return ref if ref.tree is not None else None
 
-    def _add_node(self, scan: msgs.LaserScan, pose: FloatArray, covariance: FloatArray,
-                  points: FloatArray, beam_motion: FloatArray | None, previous: int) -> int:
+    def _insert_free(self, index: int) -> None:
+        """Node ``index``'s beams into the free space (its moving returns only clear)."""
+        free, node = self._free, self.nodes[index]
+        if free is None or node.beams is None:
+            return
+        if free.scans >= 2 * self.config.dynamic_nodes:  # forget the older nodes
+            self._rebuild_free()
+            return
+        ends, valid, clear = node.beams
+        used = valid | clear
+        moving = node.moving if node.moving is not None else np.zeros(len(valid), bool)
+        sensor, in_map = laser_beams(self.graph.poses[index], self.base_to_laser, ends[used])
+        free.insert(sensor, in_map, (valid & ~moving)[used])
+
+    def _rebuild_free(self) -> None:
+        if self._free is None:
+            return
+        self._free.clear()
+        first = max(0, len(self.nodes) - self.config.dynamic_nodes)
+        for k in range(first, len(self.nodes)):
+            self._insert_free(k)
+
+    # ------------------------------------------------------------------ the graph
+    def _add_node(self, scan: msgs.LaserScan, match: _Match, points: FloatArray,
+                  beams: tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]],
+                  moving: NDArray[np.bool_], beam_motion: FloatArray | None,
+                  odom: FloatArray, previous: int) -> int:
         cfg = self.config
         prev_pose = self.graph.poses[previous]
-        index = self.graph.add_node(pose)
-        self.nodes.append(_Node(len(self.records), points, self._travelled, scan, beam_motion))
-        info = self._edge_information(relative_covariance(prev_pose, covariance))
-        self.graph.add_edge(previous, index, geometry.relative(prev_pose, pose), info)
+        index = self.graph.add_node(match.pose)
+        self.nodes.append(_Node(len(self.records), points, self._travelled, scan, beam_motion,
+                                odom.copy(), self._turned, moving, beams))
+        self._add_odometry_edge(previous, index)
+        if match.how != "odometry":
+            info = self._edge_information(relative_covariance(prev_pose,
+                                                              match.scan_covariance()))
+            self.graph.add_edge(previous, index, geometry.relative(prev_pose, match.pose), info,
+                                kernel="cauchy", delta=cfg.match_kernel_delta)
+            self._edge_kind.append("match")
+            self._edge_closure.append(-1)
+        self._insert_free(index)
         due = index % max(cfg.loop_every, 1) == 0 and \
             index - self._last_closure > cfg.loop_cooldown
         if due and self._close_loop(index):
             self._last_closure = index
-            self.graph.optimize("gn", max_iterations=10, tolerance=1e-6)
-            self._optimisations += 1
         return index
 
+    def _add_odometry_edge(self, i: int, j: int) -> None:
+        """The odometry's relative pose between nodes ``i`` and ``j``, trusted to the
+        odometry model over the driving and turning between them."""
+        a_xy, s_xy, a_th, s_th = self.config.odometry_noise
+        ni, nj = self.nodes[i], self.nodes[j]
+        sd_xy = a_xy * (nj.travelled - ni.travelled) + s_xy
+        sd_th = a_th * (nj.turned - ni.turned) + s_th
+        self.graph.add_edge(i, j, geometry.relative(ni.odometry, nj.odometry),
+                            np.diag([1 / sd_xy**2, 1 / sd_xy**2, 1 / sd_th**2]),
+                            kernel="cauchy", delta=self.config.odometry_kernel_delta)
+        self._edge_kind.append("odometry")
+        self._edge_closure.append(-1)
+
     def _edge_information(self, covariance: FloatArray) -> FloatArray:
-        """``Σ⁻¹``, with the standard deviations floored at ``min_edge_sigma``."""
+        """``(k Σ + diag(floor²))⁻¹``: a matcher's covariance scaled by
+        ``match_covariance_scale`` and its standard deviations floored at
+        ``min_edge_sigma``."""
         sd_xy, sd_th = self.config.min_edge_sigma
-        cov = 0.5 * (covariance + covariance.T) + np.diag([sd_xy**2, sd_xy**2, sd_th**2])
+        k = self.config.match_covariance_scale
+        cov = 0.5 * k * (covariance + covariance.T) + np.diag([sd_xy**2, sd_xy**2, sd_th**2])
         return np.asarray(np.linalg.inv(cov))
+
+    def _optimise(self, iterations: int, tolerance: float,
+                  group: list[LoopClosure] | None = None) -> None:
+        """Solve the graph, then check every edge's χ²: the worst edge over its bound (a
+        closure over ``closure_chi2``, a match edge over ``match_chi2``) leaves the graph —
+        a match edge for the odometry's — and the graph is solved again, until none is.
+        A new ``group`` of closures that leaves older closures over their bound first has
+        the two sides weighed (:meth:`_resolve`)."""
+        cfg = self.config
+        _solve(self.graph, iterations, tolerance)
+        if group:
+            self._resolve(group, iterations, tolerance)
+        for _ in range(len(self._edge_kind)):
+            chi = self.graph.edge_chi2()
+            bound = self._bounds()
+            worst = int(np.argmax(chi / bound))
+            if chi[worst] <= bound[worst]:
+                break
+            j = int(self.graph.edges()[1][worst])
+            kind = self._edge_kind[worst]
+            self._drop_edges([worst], f"χ² {chi[worst]:.1f} > {cfg.closure_chi2:.1f} after "
+                                      f"optimisation", chi)
+            if kind == "match":  # the odometry's edge beside it holds the chain
+                self.replaced_matches.append(j)
+            self.graph.optimize("gn", max_iterations=iterations, tolerance=tolerance)
+        chi = self.graph.edge_chi2()
+        for k, c in enumerate(self._edge_closure):
+            if c >= 0:
+                self.closures[c].chi2 = float(chi[k])
+        self._optimisations += 1
+        self._rebuild_free()
+
+    def _bounds(self) -> FloatArray:
+        kinds = np.array(self._edge_kind)
+        return np.where(kinds == "closure", self.config.closure_chi2,
+                        np.where(kinds == "match", self.config.match_chi2, np.inf))
+
+    def _drop_edges(self, edges: list[int], reason: str, chi: FloatArray) -> None:
+        """Remove graph edges (positions) with their bookkeeping; closures among them are
+        marked rejected for ``reason``."""
+        self.graph.remove_edges(edges)
+        for k in sorted(edges, reverse=True):
+            self._edge_kind.pop(k)
+            closure = self._edge_closure.pop(k)
+            if closure >= 0:
+                record = self.closures[closure]
+                record.accepted, record.chi2, record.reason = False, float(chi[k]), reason
+
+    def _resolve(self, group: list[LoopClosure], iterations: int, tolerance: float) -> None:
+        """The new ``group`` left closures accepted earlier over their bound: one side is
+        wrong (a place that looks like another). Solve the graph without the older groups
+        those closures came with; keep whichever graph has more closures within their bound
+        (the consensus), the present one when they tie."""
+        chi = self.graph.edge_chi2()
+        bound = self._bounds()
+        ids = np.array(self._edge_closure)
+        new = {id(c) for c in group}
+        over = [int(k) for k in np.flatnonzero((ids >= 0) & (chi > bound))
+                if id(self.closures[ids[k]]) not in new]
+        if not over:
+            return
+        groups = {self.closures[ids[k]].group for k in over}
+        old = [int(k) for k in np.flatnonzero(ids >= 0)
+               if self.closures[ids[k]].group in groups]
+        trial = self.graph.copy()
+        trial.remove_edges(old)
+        _solve(trial, iterations, tolerance)
+        kept_now = int(np.sum((ids >= 0) & (chi <= bound)))
+        rest = np.delete(np.arange(len(ids)), old)
+        chi_trial = trial.edge_chi2()
+        kept_trial = int(np.sum((ids[rest] >= 0) & (chi_trial <= bound[rest])))
+        if kept_trial > kept_now:
+            self._drop_edges(old, f"conflicts with the closures at nodes "
+                                  f"{group[0].node}-{group[-1].node}, which more closures "
+                                  f"agree with", chi)
+            self.graph = trial
 
     # ------------------------------------------------------------------ loop closure
     def loop_candidate(self, index: int) -> int | None:
@@ -383,6 +744,8 @@ class Slam:
         return int(old[k]) if d[k] <= cfg.loop_search_radius else None
 
     def _close_loop(self, index: int) -> bool:
+        """Search for a closure from node ``index`` (:func:`kit.slam.loops.match_loop`);
+        an accepted one enters the graph under a Cauchy kernel and the graph is solved."""
         cfg = self.config
         candidate = self.loop_candidate(index)
         if candidate is None or len(self.nodes[index].points) < 20:
@@ -394,40 +757,58 @@ class Slam:
         reference = thin(np.vstack(clouds), cfg.point_spacing)
         if len(reference) < 20:
             return False
-        source = self.nodes[index].points
-        field = sm.likelihood_field(reference, cfg.loop_resolution, cfg.loop_resolution,
-                                    margin=cfg.loop_linear_window + 0.5)
-        coarse = sm.correlative_match(source, field, poses[index], cfg.loop_linear_window,
-                                      cfg.loop_angular_window,
-                                      angular_step=math.radians(0.5))
-        if coarse.response < cfg.loop_min_response or \
-                max(coarse.covariance[0, 0], coarse.covariance[1, 1]) > cfg.loop_max_variance:
-            return False
-        ref = sm.PointCloudReference(reference, cfg.icp)
-        if ref.tree is None:
-            return False
-        fine = sm.icp(source, ref, coarse.pose)
-        if not fine.converged or _support(source, ref, fine.pose) < cfg.loop_min_support:
-            return False
-        # the correction must be one the drift since the candidate could have caused
+        record = LoopClosure(index, candidate)
+        self.closures.append(record)
+        recent = [geometry.transform_points(poses[k], self.nodes[k].points)
+                  for k in range(max(candidate + 1, index - cfg.loop_recent_nodes), index)]
         travel = self.nodes[index].travelled - self.nodes[candidate].travelled
-        shift = geometry.relative(poses[index], fine.pose)
-        if math.hypot(shift[0], shift[1]) > cfg.loop_max_shift[0] + cfg.loop_max_shift[1] * \
-                travel or abs(shift[2]) > cfg.loop_max_turn[0] + cfg.loop_max_turn[1] * travel:
+        fine = match_loop(record, self.nodes[index].points, reference, poses[index],
+                          np.vstack(recent) if recent else np.zeros((0, 2)), travel, cfg)
+        if fine is None:
             return False
         nearest = min(chain, key=lambda k: float(np.hypot(*(poses[k, :2] - fine.pose[:2]))))
-        info = self._edge_information(relative_covariance(poses[nearest], fine.covariance))
-        self.graph.add_edge(nearest, index, geometry.relative(poses[nearest], fine.pose), info,
-                            kernel="cauchy", delta=cfg.loop_kernel_delta)
-        self.loop_closures.append((nearest, index))
-        return True
+        record.reference = nearest
+        record.measurement = geometry.relative(poses[nearest], fine.pose)
+        record.covariance = relative_covariance(poses[nearest], fine.covariance)
+        estimate, spread = self.graph.relative_marginal(nearest, index)
+        e = geometry.relative(estimate, record.measurement)
+        record.surprise = float(e @ np.linalg.solve(
+            spread + np.linalg.inv(self._edge_information(record.covariance)), e))
+        self._pending = [p for p in self._pending if index - p.node <= cfg.loop_pending_nodes
+                         or self._expire(p)]
+        group = [p for p in self._pending
+                 if agree(p, record, poses, cfg.loop_consistency)] + [record]
+        needed = cfg.loop_confirmations + (record.surprise > cfg.loop_gate)
+        if len(group) <= needed:
+            record.reason = (f"pending: awaits {needed} closure(s) that agree (Mahalanobis² "
+                             f"{record.surprise:.0f})")
+            self._pending.append(record)
+            return False
+        self._groups += 1
+        for c in group:
+            c.accepted, c.reason, c.group = True, "", self._groups
+            if c in self._pending:
+                self._pending.remove(c)
+            self.graph.add_edge(c.reference, c.node, c.measurement,
+                                self._edge_information(c.covariance), kernel="cauchy",
+                                delta=cfg.loop_kernel_delta)
+            self._edge_kind.append("closure")
+            self._edge_closure.append(next(k for k, x in enumerate(self.closures) if x is c))
+        self._optimise(10, 1e-6, group)
+        return record.accepted
+
+    def _expire(self, record: LoopClosure) -> bool:
+        """A closure nothing confirmed in time: rejected for good."""
+        record.reason = (f"no other closure agreed within {self.config.loop_pending_nodes} "
+                         f"nodes (Mahalanobis² {record.surprise:.0f})")
+        return False
 
     # ------------------------------------------------------------------ results
     def optimize(self, iterations: int = 20) -> None:
-        """A final solve of the whole graph (after the last scan)."""
+        """A final solve of the whole graph (after the last scan), with the edges' χ²
+        checked as after every closure."""
         if self.graph.num_edges:
-            self.graph.optimize("gn", max_iterations=iterations, tolerance=1e-9)
-            self._optimisations += 1
+            self._optimise(iterations, 1e-9)
 
     def trajectory(self) -> tuple[FloatArray, FloatArray]:
         """``(stamps (N,), poses (N, 3))``: every scan's ``T_map_base`` from the current
@@ -444,28 +825,23 @@ class Slam:
                       model: mapping.InverseSensorModel | None = None,
                       progress: Callable[[int], object] | None = None
                       ) -> mapping.OccupancyGridMap:
-        """The map rebuilt from every node's scan (de-skewed) at its optimised pose."""
+        """The map rebuilt from every node's scan (de-skewed) at its optimised pose; returns
+        found to move only clear the cells their beams crossed."""
         grid = mapping.OccupancyGridMap(resolution, model=model)
         poses = self.graph.poses
         for k, node in enumerate(self.nodes):
             if node.scan is not None:
                 ends, hits = map_beams(node.scan, self.base_to_laser, node.beam_motion,
                                        grid.model.max_clear_range)
+                if node.moving is not None:
+                    used = perception.valid_returns(node.scan) | \
+                        perception.max_range_beams(node.scan)
+                    hits = hits & ~node.moving[used]
                 laser = geometry.compose(poses[k], self.base_to_laser)
                 grid.insert_points(laser[:2], geometry.transform_points(poses[k], ends), hits)
             if progress is not None:
                 progress(1)
         return grid
-
-
-def _support(points: FloatArray, ref: sm.PointCloudReference, pose: FloatArray,
-             within: float = 0.1) -> float:
-    """Share of ``points`` placed at ``pose`` that lie within ``within`` metres of the
-    reference: how well two candidate matches agree with the local map."""
-    assert ref.tree is not None
-    d, _ = ref.tree.query(geometry.transform_points(pose, points), k=1,
-                          distance_upper_bound=within)
-    return float(np.mean(d < np.inf))
 
 
 def map_beams(scan: msgs.LaserScan, base_to_laser: ArrayLike, beam_motion: FloatArray | None,
