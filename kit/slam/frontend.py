@@ -134,12 +134,15 @@ class SlamConfig:
     loop_max_variance: float = 0.05
     """Maximum positional variance [m²] of an accepted match."""
     loop_min_support: float = 0.7
-    """Share of the scan's points the refined match must put within 0.1 m of the reference."""
+    """Share of the scan's points the refined match must put within 0.1 m of the reference,
+    among those it puts within 1 m of it (the part the reference has seen)."""
+    loop_min_overlap: float = 0.3
+    """… and the share it puts within 1 m must reach this."""
     loop_recent_nodes: int = 4
     """Nodes before the new one whose scans must agree with the closure too."""
     loop_min_recent_support: float = 0.5
     """Share of their points the closure's correction must put within 0.1 m of the
-    reference."""
+    reference (among those within 1 m of it)."""
     loop_agreement: tuple[float, float] = (0.1, math.radians(2.0))
     """ICP from the correlative answer must stay within this (m, rad) of it."""
     loop_max_shift: tuple[float, float] = (0.3, 0.03)

@@ -37,7 +37,7 @@ from kit.slam import scan_matching as sm
 if TYPE_CHECKING:
     from kit.slam.frontend import SlamConfig
 
-__all__ = ["LoopClosure", "agree", "match_loop", "support"]
+__all__ = ["LoopClosure", "agree", "covered_support", "match_loop", "support"]
 
 FloatArray = NDArray[np.float64]
 
@@ -56,7 +56,8 @@ class LoopClosure:
     response: float = math.nan
     """Correlative response at the best pose (0…1)."""
     support: float = math.nan
-    """Share of the scan's points within ``within`` of the reference at the refined pose."""
+    """Share of the scan's points within 0.1 m of the reference at the refined pose, among
+    those within 1 m of it (:func:`covered_support`)."""
     recent_support: float = math.nan
     """The same for the last nodes' scans moved by the same correction."""
     shift: FloatArray = field(default_factory=lambda: np.full(3, math.nan))
@@ -84,6 +85,22 @@ def support(points: FloatArray, ref: sm.PointCloudReference, pose: FloatArray,
     d, _ = ref.tree.query(geometry.transform_points(pose, points), k=1,
                           distance_upper_bound=within)
     return float(np.mean(d < np.inf))
+
+
+def covered_support(points: FloatArray, ref: sm.PointCloudReference, pose: FloatArray,
+                    within: float = 0.1, cover: float = 1.0) -> tuple[float, float]:
+    """``(support, overlap)``: of ``points`` placed at ``pose``, the share lying within
+    ``cover`` metres of the reference (the part of the scan the reference has seen at all),
+    and among those the share within ``within`` metres. A scan reaching beyond the old
+    scans around a candidate is judged on what they overlap."""
+    if ref.tree is None or len(points) == 0:
+        return 0.0, 0.0
+    d, _ = ref.tree.query(geometry.transform_points(pose, points), k=1,
+                          distance_upper_bound=cover)
+    covered = d < np.inf
+    if not covered.any():
+        return 0.0, 0.0
+    return float(np.mean(d[covered] <= within)), float(np.mean(covered))
 
 
 def match_loop(record: LoopClosure, source: FloatArray, reference: FloatArray,
@@ -124,12 +141,16 @@ def match_loop(record: LoopClosure, source: FloatArray, reference: FloatArray,
         record.reason = (f"ICP and correlative disagree by {math.hypot(apart[0], apart[1]):.2f}"
                          f" m, {math.degrees(abs(apart[2])):.1f}°")
         return None
-    record.support = support(source, ref, fine.pose)
+    record.support, overlap = covered_support(source, ref, fine.pose)
+    if overlap < cfg.loop_min_overlap:
+        record.reason = f"overlap {overlap:.2f} < {cfg.loop_min_overlap}"
+        return None
     if record.support < cfg.loop_min_support:
         record.reason = f"support {record.support:.2f} < {cfg.loop_min_support}"
         return None
     correction = geometry.compose(fine.pose, geometry.inverse(estimate))  # T_map'_map
-    record.recent_support = support(recent, ref, correction) if len(recent) else 1.0
+    record.recent_support = covered_support(recent, ref, correction)[0] if len(recent) \
+        else 1.0
     if record.recent_support < cfg.loop_min_recent_support:
         record.reason = (f"the last nodes' support {record.recent_support:.2f} < "
                          f"{cfg.loop_min_recent_support}")
