@@ -48,8 +48,9 @@ from numpy.typing import ArrayLike, NDArray
 from kit import geometry, mapping, msgs, perception
 from kit.slam import correlative
 from kit.slam import scan_matching as sm
+from kit.slam.backend import Backend
 from kit.slam.free_space import FreeSpace, laser_beams
-from kit.slam.loops import LoopClosure, agree, match_loop, support
+from kit.slam.loops import LoopClosure, match_loop, support
 from kit.slam.pose_graph import PoseGraph
 
 __all__ = ["LoopClosure", "ScanRecord", "Slam", "SlamConfig", "map_beams", "relative_covariance",
@@ -332,13 +333,6 @@ def _beam_ends(scan: msgs.LaserScan, base_to_laser: ArrayLike, beam_motion: Floa
     return ends, valid, clear
 
 
-def _solve(graph: PoseGraph, iterations: int, tolerance: float) -> None:
-    """Gauss–Newton first with every kernel off (plain least squares, whose basin is wide
-    enough for a closure that moves the map far), then with the kernels on."""
-    graph.optimize("gn", max_iterations=iterations, tolerance=tolerance, robust=False)
-    graph.optimize("gn", max_iterations=iterations, tolerance=tolerance)
-
-
 class Slam:
     """Online graph SLAM: feed :meth:`add_scan` one scan and its odometry at a time.
 
@@ -371,13 +365,9 @@ class Slam:
         self.config = config or SlamConfig()
         cfg = self.config
         self.base_to_laser = geometry.check_pose(base_to_laser, "base_to_laser").copy()
-        self.graph = PoseGraph()
+        self.backend = Backend(cfg)
         self.records: list[ScanRecord] = []
         self.nodes: list[_Node] = []
-        self.closures: list[LoopClosure] = []
-        self.replaced_matches: list[int] = []
-        self._edge_kind: list[str] = []    # per graph edge: "match", "odometry", "closure"
-        self._edge_closure: list[int] = []  # its index in self.closures (closures), else −1
         self._last_pose: FloatArray | None = None   # T_map_base of the last scan
         self._last_odom: FloatArray | None = None
         self._travelled = 0.0
@@ -389,13 +379,26 @@ class Slam:
         self._last_closure = -(10**9)
         self._free = FreeSpace(0.05, cfg.dynamic_margin, 0.25, cfg.dynamic_range) \
             if cfg.dynamic_margin > 0 else None
-        self._pending: list[LoopClosure] = []   # closures awaiting confirmation
-        self._groups = 0                         # closure groups accepted so far
+
+    @property
+    def graph(self) -> PoseGraph:
+        """The pose graph (:class:`kit.slam.backend.Backend` keeps its edges' kinds)."""
+        return self.backend.graph
+
+    @property
+    def closures(self) -> list[LoopClosure]:
+        """Every loop-closure attempt, accepted or not, with its figures and reason."""
+        return self.backend.closures
+
+    @property
+    def replaced_matches(self) -> list[int]:
+        """Nodes whose match edge the back end dropped after a solve."""
+        return self.backend.replaced_matches
 
     @property
     def loop_closures(self) -> list[tuple[int, int]]:
         """``(reference node, node)`` of every closure in the graph now."""
-        return [(c.reference, c.node) for c in self.closures if c.accepted]
+        return self.backend.loop_closures
 
     # ------------------------------------------------------------------ the loop
     def add_scan(self, scan: msgs.LaserScan, odometry: ArrayLike, stamp: float | None = None,
@@ -621,12 +624,8 @@ class Slam:
                                 odom.copy(), self._turned, moving, beams))
         self._add_odometry_edge(previous, index)
         if match.how != "odometry":
-            info = self._edge_information(relative_covariance(prev_pose,
-                                                              match.scan_covariance()))
-            self.graph.add_edge(previous, index, geometry.relative(prev_pose, match.pose), info,
-                                kernel="cauchy", delta=cfg.match_kernel_delta)
-            self._edge_kind.append("match")
-            self._edge_closure.append(-1)
+            self.backend.add_match(previous, index, geometry.relative(prev_pose, match.pose),
+                                   relative_covariance(prev_pose, match.scan_covariance()))
         self._insert_free(index)
         due = index % max(cfg.loop_every, 1) == 0 and \
             index - self._last_closure > cfg.loop_cooldown
@@ -641,96 +640,8 @@ class Slam:
         ni, nj = self.nodes[i], self.nodes[j]
         sd_xy = a_xy * (nj.travelled - ni.travelled) + s_xy
         sd_th = a_th * (nj.turned - ni.turned) + s_th
-        self.graph.add_edge(i, j, geometry.relative(ni.odometry, nj.odometry),
-                            np.diag([1 / sd_xy**2, 1 / sd_xy**2, 1 / sd_th**2]),
-                            kernel="cauchy", delta=self.config.odometry_kernel_delta)
-        self._edge_kind.append("odometry")
-        self._edge_closure.append(-1)
-
-    def _edge_information(self, covariance: FloatArray) -> FloatArray:
-        """``(k Σ + diag(floor²))⁻¹``: a matcher's covariance scaled by
-        ``match_covariance_scale`` and its standard deviations floored at
-        ``min_edge_sigma``."""
-        sd_xy, sd_th = self.config.min_edge_sigma
-        k = self.config.match_covariance_scale
-        cov = 0.5 * k * (covariance + covariance.T) + np.diag([sd_xy**2, sd_xy**2, sd_th**2])
-        return np.asarray(np.linalg.inv(cov))
-
-    def _optimise(self, iterations: int, tolerance: float,
-                  group: list[LoopClosure] | None = None) -> None:
-        """Solve the graph, then check every edge's χ²: the worst edge over its bound (a
-        closure over ``closure_chi2``, a match edge over ``match_chi2``) leaves the graph —
-        a match edge for the odometry's — and the graph is solved again, until none is.
-        A new ``group`` of closures that leaves older closures over their bound first has
-        the two sides weighed (:meth:`_resolve`)."""
-        cfg = self.config
-        _solve(self.graph, iterations, tolerance)
-        if group:
-            self._resolve(group, iterations, tolerance)
-        for _ in range(len(self._edge_kind)):
-            chi = self.graph.edge_chi2()
-            bound = self._bounds()
-            worst = int(np.argmax(chi / bound))
-            if chi[worst] <= bound[worst]:
-                break
-            j = int(self.graph.edges()[1][worst])
-            kind = self._edge_kind[worst]
-            self._drop_edges([worst], f"χ² {chi[worst]:.1f} > {cfg.closure_chi2:.1f} after "
-                                      f"optimisation", chi)
-            if kind == "match":  # the odometry's edge beside it holds the chain
-                self.replaced_matches.append(j)
-            self.graph.optimize("gn", max_iterations=iterations, tolerance=tolerance)
-        chi = self.graph.edge_chi2()
-        for k, c in enumerate(self._edge_closure):
-            if c >= 0:
-                self.closures[c].chi2 = float(chi[k])
-        self._optimisations += 1
-        self._rebuild_free()
-
-    def _bounds(self) -> FloatArray:
-        kinds = np.array(self._edge_kind)
-        return np.where(kinds == "closure", self.config.closure_chi2,
-                        np.where(kinds == "match", self.config.match_chi2, np.inf))
-
-    def _drop_edges(self, edges: list[int], reason: str, chi: FloatArray) -> None:
-        """Remove graph edges (positions) with their bookkeeping; closures among them are
-        marked rejected for ``reason``."""
-        self.graph.remove_edges(edges)
-        for k in sorted(edges, reverse=True):
-            self._edge_kind.pop(k)
-            closure = self._edge_closure.pop(k)
-            if closure >= 0:
-                record = self.closures[closure]
-                record.accepted, record.chi2, record.reason = False, float(chi[k]), reason
-
-    def _resolve(self, group: list[LoopClosure], iterations: int, tolerance: float) -> None:
-        """The new ``group`` left closures accepted earlier over their bound: one side is
-        wrong (a place that looks like another). Solve the graph without the older groups
-        those closures came with; keep whichever graph has more closures within their bound
-        (the consensus), the present one when they tie."""
-        chi = self.graph.edge_chi2()
-        bound = self._bounds()
-        ids = np.array(self._edge_closure)
-        new = {id(c) for c in group}
-        over = [int(k) for k in np.flatnonzero((ids >= 0) & (chi > bound))
-                if id(self.closures[ids[k]]) not in new]
-        if not over:
-            return
-        groups = {self.closures[ids[k]].group for k in over}
-        old = [int(k) for k in np.flatnonzero(ids >= 0)
-               if self.closures[ids[k]].group in groups]
-        trial = self.graph.copy()
-        trial.remove_edges(old)
-        _solve(trial, iterations, tolerance)
-        kept_now = int(np.sum((ids >= 0) & (chi <= bound)))
-        rest = np.delete(np.arange(len(ids)), old)
-        chi_trial = trial.edge_chi2()
-        kept_trial = int(np.sum((ids[rest] >= 0) & (chi_trial <= bound[rest])))
-        if kept_trial > kept_now:
-            self._drop_edges(old, f"conflicts with the closures at nodes "
-                                  f"{group[0].node}-{group[-1].node}, which more closures "
-                                  f"agree with", chi)
-            self.graph = trial
+        self.backend.add_odometry(i, j, geometry.relative(ni.odometry, nj.odometry), sd_xy,
+                                  sd_th)
 
     # ------------------------------------------------------------------ loop closure
     def loop_candidate(self, index: int) -> int | None:
@@ -761,57 +672,34 @@ class Slam:
         if len(reference) < 20:
             return False
         record = LoopClosure(index, candidate)
-        self.closures.append(record)
         recent = [geometry.transform_points(poses[k], self.nodes[k].points)
                   for k in range(max(candidate + 1, index - cfg.loop_recent_nodes), index)]
         travel = self.nodes[index].travelled - self.nodes[candidate].travelled
         fine = match_loop(record, self.nodes[index].points, reference, poses[index],
                           np.vstack(recent) if recent else np.zeros((0, 2)), travel, cfg)
         if fine is None:
+            self.backend.closures.append(record)
             return False
         nearest = min(chain, key=lambda k: float(np.hypot(*(poses[k, :2] - fine.pose[:2]))))
         record.reference = nearest
         record.measurement = geometry.relative(poses[nearest], fine.pose)
         record.covariance = relative_covariance(poses[nearest], fine.covariance)
-        estimate, spread = self.graph.relative_marginal(nearest, index)
-        e = geometry.relative(estimate, record.measurement)
-        record.surprise = float(e @ np.linalg.solve(
-            spread + np.linalg.inv(self._edge_information(record.covariance)), e))
-        self._pending = [p for p in self._pending if index - p.node <= cfg.loop_pending_nodes
-                         or self._expire(p)]
-        group = [p for p in self._pending
-                 if agree(p, record, poses, cfg.loop_consistency)] + [record]
-        needed = cfg.loop_confirmations + (record.surprise > cfg.loop_gate)
-        if len(group) <= needed:
-            record.reason = (f"pending: awaits {needed} closure(s) that agree (Mahalanobis² "
-                             f"{record.surprise:.0f})")
-            self._pending.append(record)
-            return False
-        self._groups += 1
-        for c in group:
-            c.accepted, c.reason, c.group = True, "", self._groups
-            if c in self._pending:
-                self._pending.remove(c)
-            self.graph.add_edge(c.reference, c.node, c.measurement,
-                                self._edge_information(c.covariance), kernel="cauchy",
-                                delta=cfg.loop_kernel_delta)
-            self._edge_kind.append("closure")
-            self._edge_closure.append(next(k for k, x in enumerate(self.closures) if x is c))
-        self._optimise(10, 1e-6, group)
+        if self.backend.propose(record):
+            self._optimised()
         return record.accepted
-
-    def _expire(self, record: LoopClosure) -> bool:
-        """A closure nothing confirmed in time: rejected for good."""
-        record.reason = (f"no other closure agreed within {self.config.loop_pending_nodes} "
-                         f"nodes (Mahalanobis² {record.surprise:.0f})")
-        return False
 
     # ------------------------------------------------------------------ results
     def optimize(self, iterations: int = 20) -> None:
         """A final solve of the whole graph (after the last scan), with the edges' χ²
         checked as after every closure."""
         if self.graph.num_edges:
-            self._optimise(iterations, 1e-9)
+            self.backend.optimise(iterations, 1e-9)
+            self._optimised()
+
+    def _optimised(self) -> None:
+        """After a solve: the local map and the free space follow the new poses."""
+        self._optimisations += 1
+        self._rebuild_free()
 
     def trajectory(self) -> tuple[FloatArray, FloatArray]:
         """``(stamps (N,), poses (N, 3))``: every scan's ``T_map_base`` from the current
