@@ -29,7 +29,7 @@ from kit.slam.loops import LoopClosure, agree
 from kit.slam.pose_graph import PoseGraph
 
 if TYPE_CHECKING:
-    from kit.slam.frontend import SlamConfig
+    from kit.slam.config import SlamConfig
 
 __all__ = ["Backend", "solve"]
 

@@ -49,142 +49,16 @@ from kit import geometry, mapping, msgs, perception
 from kit.slam import correlative
 from kit.slam import scan_matching as sm
 from kit.slam.backend import Backend
+from kit.slam.config import SlamConfig
 from kit.slam.free_space import FreeSpace, laser_beams
-from kit.slam.loops import LoopClosure, match_loop, support
+from kit.slam.loops import LoopClosure, match_loop
+from kit.slam.matching import Match, match_scan, prior_information, refine
 from kit.slam.pose_graph import PoseGraph
 
 __all__ = ["LoopClosure", "ScanRecord", "Slam", "SlamConfig", "map_beams", "relative_covariance",
            "scan_points"]
 
 FloatArray = NDArray[np.float64]
-CHI2_3DOF_999 = 16.27
-"""χ² with 3 degrees of freedom that a consistent 3-vector exceeds with probability 0.1 %."""
-
-
-@dataclass(frozen=True)
-class SlamConfig:
-    """Front-end settings (SI units). Defaults follow SLAM Toolbox's where they exist."""
-
-    min_travel: float = 0.3
-    """New node after this much travel [m] (SLAM Toolbox: ``minimum_travel_distance``)."""
-    min_heading: float = 0.3
-    """… or this much turning [rad] (``minimum_travel_heading``)."""
-    local_map_nodes: int = 5
-    """Scans in the local map matched against (``scan_buffer_size``)."""
-    max_range: float = 25.0
-    """Returns farther than this [m] are not used for matching."""
-    point_spacing: float = 0.02
-    """Scan points are thinned to one per cell of this size [m]."""
-    icp: sm.IcpConfig = field(default_factory=sm.IcpConfig)
-    min_inliers: float = 0.3
-    """A match pairing fewer of its points than this fraction is not trusted."""
-    poor_rmse: float = 0.08
-    """A match whose residuals' RMS exceeds this [m] is not trusted."""
-    match_gate: float = CHI2_3DOF_999
-    """A match may move the prediction by at most this Mahalanobis distance² under the
-    odometry's covariance, or it must be confirmed by the wider search."""
-    far_match_gain: float = 0.1
-    """A match far from the odometry is taken only if it puts this much larger a share of
-    the scan's points within 0.1 m of the local map than the best fit near the odometry."""
-    search_linear_window: float = 0.3
-    """Half-width [m] of the correlative search around the prediction."""
-    search_angular_window: float = math.radians(20.0)
-    """Half-width [rad] of that search (odometry's heading can jump this much)."""
-    search_prior_scale: float = 0.01
-    """The odometry prior's information is scaled by this for the ICP after the search."""
-    odometry_noise: tuple[float, float, float, float] = (0.1, 0.02, 0.2, math.radians(1.0))
-    """(α_xy, σ_xy, α_θ, σ_θ): the odometry between two scans is trusted to
-    ``α_xy d + σ_xy`` [m] and ``α_θ |Δθ| + σ_θ`` [rad] (d the distance driven); an assumption."""
-    min_edge_sigma: tuple[float, float] = (0.005, math.radians(0.2))
-    """Floor on an edge's standard deviation (m, rad): matches are not perfect."""
-    match_covariance_scale: float = 10.0
-    """ICP's covariance counts every point's residual as an independent measurement;
-    neighbouring points on one wall are not, so a match's (and a closure's) covariance is
-    scaled by this before it weighs an edge (an assumption: on the Intel log the matches err
-    2.4–4 times the unscaled standard deviations)."""
-    match_kernel_delta: float = 3.0
-    """Cauchy kernel width on match edges (in √χ² units)."""
-    odometry_kernel_delta: float = 3.0
-    """Cauchy kernel width on the odometry's edges, which every pair of consecutive nodes
-    has beside the match's (wheel odometry slips and jumps)."""
-    match_chi2: float = 10 * CHI2_3DOF_999
-    """After an optimisation a match edge whose χ² exceeds this is replaced by the
-    odometry's edge."""
-    dynamic_margin: float = 0.15
-    """A return is taken for something moving when every cell within this [m] of it has
-    been seen free by the last scans (0 turns the test off)."""
-    dynamic_nodes: int = 20
-    """Nodes whose beams make up the free space."""
-    dynamic_range: float = 10.0
-    """Beams clear free space up to this range [m]."""
-    loop_search_radius: float = 4.0
-    """Loop-closure candidates lie within this distance [m] (``loop_search_maximum_distance``)."""
-    loop_min_travel: float = 10.0
-    """… and were passed at least this much driving [m] ago."""
-    loop_chain: int = 10
-    """Nodes on each side of the candidate whose scans form the loop's reference."""
-    loop_linear_window: float = 2.0
-    """Half-width of the correlative search [m]: the drift since the candidate (SLAM
-    Toolbox's ``loop_search_space_dimension`` of 8 m spans ±4 m)."""
-    loop_angular_window: float = 0.3
-    """Half-width of the correlative search [rad]."""
-    loop_resolution: float = 0.05
-    """Correlative grid cell [m]."""
-    loop_min_response: float = 0.45
-    """Minimum mean likelihood (``loop_match_minimum_response_fine``)."""
-    loop_max_variance: float = 0.05
-    """Maximum positional variance [m²] of an accepted match."""
-    loop_min_support: float = 0.7
-    """Share of the scan's points the refined match must put within 0.1 m of the reference,
-    among those it puts within 1 m of it (the part the reference has seen)."""
-    loop_min_overlap: float = 0.3
-    """… and the share it puts within 1 m must reach this."""
-    loop_recent_nodes: int = 4
-    """Nodes before the new one whose scans must agree with the closure too."""
-    loop_min_recent_support: float = 0.5
-    """Share of their points the closure's correction must put within 0.1 m of the
-    reference (among those within 1 m of it)."""
-    loop_agreement: tuple[float, float] = (0.1, math.radians(2.0))
-    """ICP from the correlative answer must stay within this (m, rad) of it."""
-    loop_max_shift: tuple[float, float] = (0.3, 0.03)
-    """A closure may move the node by at most ``a + b · d`` metres, ``d`` the driving [m]
-    since the candidate: the drift scan matching can have accumulated (an assumption)."""
-    loop_max_turn: tuple[float, float] = (math.radians(3.0), math.radians(0.3))
-    """… and turn it by at most ``a + b · d`` radians."""
-    loop_gate: float = CHI2_3DOF_999
-    """A closure whose Mahalanobis distance² from the graph's current estimate (under the
-    graph's marginal covariance of the two nodes' relative pose plus the closure's own)
-    exceeds this is *surprising*: it waits for another closure that agrees with it."""
-    loop_consistency: tuple[float, float] = (0.15, math.radians(2.0))
-    """Two closures agree when the loop they make with the graph's estimates between their
-    new nodes and between their old ones closes within this (m, rad)."""
-    loop_confirmations: int = 1
-    """Agreeing closures a closure needs (one more when it is surprising) before all enter
-    the graph together: one scan can look like another place, two in a row rarely do."""
-    loop_pending_nodes: int = 25
-    """Nodes a closure waits for its confirmation."""
-    loop_kernel_delta: float = 3.0
-    """Cauchy kernel width on loop edges (in √χ² units)."""
-    closure_chi2: float = 2 * CHI2_3DOF_999
-    """After an optimisation a closure whose χ² exceeds this is removed."""
-    loop_every: int = 1
-    """Look for a loop at every n-th node."""
-    loop_cooldown: int = 10
-    """Nodes after an accepted closure before the next is looked for."""
-
-    def __post_init__(self) -> None:
-        if self.min_travel <= 0 or self.min_heading <= 0 or self.local_map_nodes < 1:
-            raise ValueError("min_travel, min_heading and local_map_nodes must be positive")
-        if self.max_range <= 0 or self.point_spacing < 0 or not 0 <= self.min_inliers <= 1:
-            raise ValueError("max_range must be positive, point_spacing >= 0, min_inliers in "
-                             "[0, 1]")
-        if self.match_gate <= 0 or self.match_chi2 <= 0 or self.closure_chi2 <= 0:
-            raise ValueError("match_gate, match_chi2 and closure_chi2 must be positive")
-        if self.dynamic_margin < 0 or self.dynamic_nodes < 1 or self.dynamic_range <= 0:
-            raise ValueError("dynamic_margin must be >= 0, dynamic_nodes and dynamic_range "
-                             "positive")
-
-
 @dataclass(frozen=True)
 class ScanRecord:
     """A scan's place in the trajectory: its pose relative to the node before it."""
@@ -284,28 +158,6 @@ class _Node:
                 self.normals, self.usable = np.zeros((0, 2)), np.zeros(len(self.points), bool)
             self.normals = self.normals[self.usable] if len(self.normals) else self.normals
         return self.points[self.usable], self.normals
-
-
-@dataclass(frozen=True)
-class _Match:
-    pose: FloatArray
-    covariance: FloatArray
-    how: str
-    """"icp", "search" or "odometry"."""
-    prior: FloatArray | None = None
-    """The odometry prior's information the match was held by (its covariance includes
-    it)."""
-
-    def scan_covariance(self) -> FloatArray:
-        """The covariance of what the scan alone says: the prior's information taken back
-        out of the match's (``(Σ⁻¹ − Ω_p)⁻¹``), kept positive definite."""
-        info = np.linalg.inv(self.covariance)
-        if self.prior is not None:
-            info = info - self.prior
-        info = 0.5 * (info + info.T)
-        w, v = np.linalg.eigh(info)
-        w = np.maximum(w, 1e-6)
-        return np.asarray((v / w) @ v.T, dtype=np.float64)
 
 
 def _beam_ends(scan: msgs.LaserScan, base_to_laser: ArrayLike, beam_motion: FloatArray | None
@@ -461,82 +313,18 @@ class Slam:
         self._last_pose, self._last_odom = odom.copy(), odom.copy()
         return odom.copy()
 
-    def _prior_information(self, step: FloatArray) -> FloatArray:
-        a_xy, s_xy, a_th, s_th = self.config.odometry_noise
-        d = float(np.hypot(step[0], step[1]))
-        sd_xy, sd_th = a_xy * d + s_xy, a_th * abs(float(step[2])) + s_th
-        # isotropic in x and y, so the same in the map frame as in the robot's
-        return np.diag([1 / sd_xy**2, 1 / sd_xy**2, 1 / sd_th**2])
-
-    def _fits(self, result: sm.MatchResult) -> bool:
-        """The fit gates: enough points paired, residuals small (an ICP that ends moving back
-        and forth between two pairings by less than a millimetre still fits)."""
-        return result.inlier_fraction >= self.config.min_inliers and \
-            result.rmse <= self.config.poor_rmse and result.iterations > 0
-
-    def _match(self, points: FloatArray, predicted: FloatArray, step: FloatArray) -> _Match:
-        """The scan's pose: ICP held by the odometry when it passes the gates, else the wider
-        search's answer when both matchers agree and it fits clearly better than the
-        odometry, else the odometry's prediction."""
-        cfg = self.config
-        omega = self._prior_information(step)
-        odometry = _Match(predicted, np.asarray(np.linalg.inv(omega)), "odometry")
+    def _match(self, points: FloatArray, predicted: FloatArray, step: FloatArray) -> Match:
+        """The scan's pose against the local map (:func:`kit.slam.matching.match_scan`)."""
+        omega = prior_information(step, self.config.odometry_noise)
         ref = self._local_reference()
-        if ref is None or len(points) < 10:
-            return odometry
-        near = sm.icp(points, ref, predicted, omega)
-        d = near.pose - predicted
-        d[2] = float(geometry.wrap_angle(d[2]))
-        if self._fits(near) and float(d @ omega @ d) <= cfg.match_gate:
-            return _Match(near.pose, near.covariance, "icp", omega)
-        field_ = self._local_field(ref, predicted)
-        if field_ is None:
-            return odometry
-        linear, angular = cfg.search_linear_window, cfg.search_angular_window
-        coarse = correlative.correlative_match(points, field_, predicted, linear, angular,
-                                               math.radians(0.5), penalty=0.1)
-        off = coarse.pose - predicted
-        if max(abs(off[0]), abs(off[1])) >= linear - 1.5 * field_.resolution or \
-                abs(float(geometry.wrap_angle(off[2]))) >= angular - math.radians(1.0):
-            # the best on the window's edge may lie beyond it (odometry can jump 0.7 m and
-            # 70° between two scans): look three times as far and four times as wide
-            coarse = correlative.correlative_match(points, field_, predicted, 3 * linear,
-                                                   min(4 * angular, math.pi),
-                                                   math.radians(0.5), penalty=0.1)
-        far = sm.icp(points, ref, coarse.pose, omega * cfg.search_prior_scale)
-        apart = geometry.relative(coarse.pose, far.pose)
-        if math.hypot(apart[0], apart[1]) > 2.5 * field_.resolution or \
-                abs(apart[2]) > math.radians(2.0):
-            # ICP walked off: a second correlative look where it ended must find it there
-            coarse = correlative.correlative_match(points, field_, far.pose,
-                                                   4 * field_.resolution, math.radians(4.0),
-                                                   math.radians(0.5))
-            apart = geometry.relative(coarse.pose, far.pose)
-        agree = math.hypot(apart[0], apart[1]) <= 2.5 * field_.resolution and \
-            abs(apart[2]) <= math.radians(2.0)
-        # a match away from the odometry must explain the scan clearly better than the
-        # odometry's own prediction does (and the search's answer better than ICP's too)
-        gain = cfg.far_match_gain
-        bar = support(points, ref, predicted) + gain
-        s_near = support(points, ref, near.pose) if self._fits(near) else -1.0
-        s_far = support(points, ref, far.pose) if self._fits(far) and agree else -1.0
-        if s_far >= max(bar, s_near + gain):
-            return _Match(far.pose, far.covariance, "search", omega * cfg.search_prior_scale)
-        if s_near >= bar:
-            return _Match(near.pose, near.covariance, "icp", omega)
-        return odometry
+        return match_scan(points, predicted, omega, ref,
+                          lambda: self._local_field(ref, predicted) if ref else None,
+                          self.config)
 
-    def _refine(self, points: FloatArray, match: _Match, step: FloatArray) -> _Match:
+    def _refine(self, points: FloatArray, match: Match, step: FloatArray) -> Match:
         """ICP again from ``match`` once more returns were found to move."""
-        ref = self._local_reference()
-        if match.how == "odometry" or ref is None or len(points) < 10:
-            return match
-        omega = self._prior_information(step)
-        if match.how == "search":
-            omega = omega * self.config.search_prior_scale
-        result = sm.icp(points, ref, match.pose, omega)
-        return _Match(result.pose, result.covariance, match.how, omega) \
-            if self._fits(result) else match
+        omega = prior_information(step, self.config.odometry_noise)
+        return refine(points, match, omega, self._local_reference(), self.config)
 
     def _moving(self, points: FloatArray, pose: FloatArray) -> NDArray[np.bool_]:
         """Which ``points`` (``base``) at ``pose`` lie in free space the recent scans saw."""
@@ -613,7 +401,7 @@ class Slam:
             self._insert_free(k)
 
     # ------------------------------------------------------------------ the graph
-    def _add_node(self, scan: msgs.LaserScan, match: _Match, points: FloatArray,
+    def _add_node(self, scan: msgs.LaserScan, match: Match, points: FloatArray,
                   beams: tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]],
                   moving: NDArray[np.bool_], beam_motion: FloatArray | None,
                   odom: FloatArray, previous: int) -> int:

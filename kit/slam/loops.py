@@ -35,7 +35,7 @@ from kit.slam import correlative
 from kit.slam import scan_matching as sm
 
 if TYPE_CHECKING:
-    from kit.slam.frontend import SlamConfig
+    from kit.slam.config import SlamConfig
 
 __all__ = ["LoopClosure", "agree", "covered_support", "match_loop", "support"]
 
