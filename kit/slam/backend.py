@@ -126,6 +126,24 @@ class Backend:
                              f"{record.surprise:.0f})")
             self._pending.append(record)
             return False
+        rivals = self._rivals(group, poses)
+        if rivals:
+            supporters = len(group) + sum(
+                any(agree(p, c, poses, cfg.loop_consistency) for c in group)
+                for p in self._pending if all(p is not c for c in group))
+            if supporters <= len(rivals):  # they wait for more closures to agree with them
+                for c in group:
+                    c.reason = (f"pending: disagrees with {len(rivals)} closure(s) accepted "
+                                f"before (nodes {rivals[0].node}-{rivals[-1].node}) and no more"
+                                f" closures agree with it than with them")
+                if all(p is not record for p in self._pending):
+                    self._pending.append(record)
+                return False
+            self._drop([k for k, c in enumerate(self._closure)
+                        if c >= 0 and any(self.closures[c] is r for r in rivals)],
+                       f"conflicts with the closures at nodes {group[0].node}-"
+                       f"{group[-1].node}, which more closures agree with",
+                       self.graph.edge_chi2())
         self._groups += 1
         for c in group:
             c.accepted, c.reason, c.group = True, "", self._groups
@@ -136,36 +154,92 @@ class Backend:
                                 delta=cfg.loop_kernel_delta)
             self._kind.append("closure")
             self._closure.append(next(k for k, x in enumerate(self.closures) if x is c))
-        self.optimise(10, 1e-6, group)
+        self.optimise(10, 1e-6)
         return True
 
-    # ------------------------------------------------------------------ solving
-    def optimise(self, iterations: int, tolerance: float,
-                 group: list[LoopClosure] | None = None) -> None:
-        """Solve the graph, then drop the worst edge over its χ² bound and solve again,
-        until none is; a new ``group`` of closures is first weighed against older ones it
-        conflicts with (:meth:`resolve`)."""
+    def _rivals(self, group: list[LoopClosure], poses: FloatArray) -> list[LoopClosure]:
+        """Closures in the graph that a closure of ``group`` disagrees with while both
+        their new nodes and their old nodes lie within ``loop_pending_nodes`` of each other
+        (where the graph's estimate between them is local, so :func:`agree` can be trusted),
+        with every closure of their groups."""
         cfg = self.config
+        near = cfg.loop_pending_nodes
+        groups = {c.group for c in self.closures if c.accepted and any(
+            abs(c.node - n.node) <= near and abs(c.reference - n.reference) <= near and
+            not agree(c, n, poses, cfg.loop_consistency) for n in group)}
+        return [c for c in self.closures if c.accepted and c.group in groups]
+
+    # ------------------------------------------------------------------ solving
+    def optimise(self, iterations: int, tolerance: float) -> None:
+        """Solve the graph; while edges are over their χ² bound, drop the one whose removal
+        leaves the fewest over theirs (:meth:`_culprit`) and solve again."""
         solve(self.graph, iterations, tolerance)
-        if group:
-            self.resolve(group, iterations, tolerance)
         for _ in range(len(self._kind)):
             chi = self.graph.edge_chi2()
             bound = self._bounds()
-            worst = int(np.argmax(chi / bound))
-            if chi[worst] <= bound[worst]:
+            if np.all(chi <= bound):
                 break
+            worst, trial = self._culprit(chi, bound, iterations, tolerance)
             j = int(self.graph.edges()[1][worst])
             kind = self._kind[worst]
-            self._drop([worst], f"χ² {chi[worst]:.1f} > {cfg.closure_chi2:.1f} after "
-                                f"optimisation", chi)
+            self._drop([worst], f"χ² {chi[worst]:.1f} > {bound[worst]:.1f} after optimisation"
+                       if chi[worst] > bound[worst] else
+                       f"the closures disagree with it (χ² {chi[worst]:.1f})", chi)
+            self.graph = trial
             if kind == "match":  # the odometry's edge beside it holds the chain
                 self.replaced_matches.append(j)
-            self.graph.optimize("gn", max_iterations=iterations, tolerance=tolerance)
         chi = self.graph.edge_chi2()
         for k, c in enumerate(self._closure):
             if c >= 0:
                 self.closures[c].chi2 = float(chi[k])
+
+    def _culprit(self, chi: FloatArray, bound: FloatArray, iterations: int, tolerance: float
+                 ) -> tuple[int, PoseGraph]:
+        """Which edge to drop when some are over their bound, and the graph solved without
+        it. Tried: the three edges most over their bound, and the three match edges inside
+        the loops of the closures over theirs that disagree most with the odometry's edge
+        beside them (a wrong match the graph trusts can leave the closures over their bound
+        and itself within); kept: the removal that leaves the fewest edges over their bound,
+        then the lowest cost."""
+        ratio = chi / bound
+        kinds = np.array(self._kind)
+        over = np.flatnonzero(ratio > 1.0)
+        candidates = [int(k) for k in over[np.argsort(-ratio[over])][:3]]
+        i, j = self.graph.edges()[:2]
+        spans = [(int(min(i[k], j[k])), int(max(i[k], j[k]))) for k in over
+                 if kinds[k] == "closure"]
+        if spans:
+            lo, hi = min(a for a, _ in spans), max(b for _, b in spans)
+            candidates += self._suspicious_matches(lo, hi)[:3]
+        best: tuple[tuple[int, float], int, PoseGraph] | None = None
+        for k in dict.fromkeys(candidates):
+            trial = self.graph.copy()
+            trial.remove_edges([k])
+            solve(trial, iterations, tolerance)
+            rest = np.delete(bound, k)
+            key = (int(np.sum(trial.edge_chi2() > rest)), trial.cost())
+            if best is None or key < best[0]:
+                best = (key, k, trial)
+        assert best is not None
+        return best[1], best[2]
+
+    def _suspicious_matches(self, lo: int, hi: int) -> list[int]:
+        """Match edges between nodes ``lo`` and ``hi`` whose measurement the odometry's edge
+        beside them contradicts (Mahalanobis distance² over ``match_gate`` under both
+        covariances), most contradicted first."""
+        i, j, z, omega = self.graph.edges()
+        odometry = {(int(a), int(b)): k for k, (a, b, kind)
+                    in enumerate(zip(i, j, self._kind, strict=True)) if kind == "odometry"}
+        scored = []
+        for k, kind in enumerate(self._kind):
+            o = odometry.get((int(i[k]), int(j[k])))
+            if kind != "match" or o is None or not lo <= i[k] < hi:
+                continue
+            e = geometry.relative(z[o], z[k])
+            d2 = float(e @ np.linalg.solve(np.linalg.inv(omega[k]) + np.linalg.inv(omega[o]), e))
+            if d2 > self.config.match_gate:
+                scored.append((d2, k))
+        return [k for _, k in sorted(scored, reverse=True)]
 
     def _bounds(self) -> FloatArray:
         kinds = np.array(self._kind)
@@ -182,30 +256,3 @@ class Backend:
             if closure >= 0:
                 record = self.closures[closure]
                 record.accepted, record.chi2, record.reason = False, float(chi[k]), reason
-
-    def resolve(self, group: list[LoopClosure], iterations: int, tolerance: float) -> None:
-        """The new ``group`` left closures accepted earlier over their bound: one side is
-        wrong. Solve the graph without the older groups those closures came with; keep
-        whichever graph has more closures within their bound (the consensus), the present
-        one when they tie."""
-        chi = self.graph.edge_chi2()
-        bound = self._bounds()
-        ids = np.array(self._closure)
-        new = {id(c) for c in group}
-        over = [int(k) for k in np.flatnonzero((ids >= 0) & (chi > bound))
-                if id(self.closures[ids[k]]) not in new]
-        if not over:
-            return
-        groups = {self.closures[ids[k]].group for k in over}
-        old = [int(k) for k in np.flatnonzero(ids >= 0)
-               if self.closures[ids[k]].group in groups]
-        trial = self.graph.copy()
-        trial.remove_edges(old)
-        solve(trial, iterations, tolerance)
-        kept_now = int(np.sum((ids >= 0) & (chi <= bound)))
-        rest = np.delete(np.arange(len(ids)), old)
-        kept_trial = int(np.sum((ids[rest] >= 0) & (trial.edge_chi2() <= bound[rest])))
-        if kept_trial > kept_now:
-            self._drop(old, f"conflicts with the closures at nodes {group[0].node}-"
-                            f"{group[-1].node}, which more closures agree with", chi)
-            self.graph = trial

@@ -270,7 +270,8 @@ def _search_numpy(values: FloatArray, coarse: FloatArray, ix: IntArray, iy: IntA
 def correlative_match(source: ArrayLike, reference: LikelihoodField, initial: ArrayLike,
                       linear_window: float = 0.5, angular_window: float = 0.35,
                       angular_step: float | None = None, coarse_factor: int = 4,
-                      penalty: float = 0.0, method: Method = "numba") -> MatchResult:
+                      penalty: float = 0.0, method: Method = "numba", subcell: bool = False
+                      ) -> MatchResult:
     """The pose within ``initial ± (linear_window, linear_window, angular_window)`` [m, m,
     rad] where the source points best fit the likelihood field, to one cell and one angular
     step, with Karto's covariance of the responses around it.
@@ -292,6 +293,11 @@ def correlative_match(source: ArrayLike, reference: LikelihoodField, initial: Ar
         the guess (0: not at all). It decides between poses a corridor cannot tell apart.
     method
         ``"numba"`` (branch and bound, compiled) or ``"numpy"`` (exhaustive; slow).
+    subcell
+        Refine the best pose between the grid's cells and angular steps: along each of
+        x, y and θ the parabola through the responses one step either side of the best has
+        its vertex at ``best + h (s₋ − s₊) / (2 (s₋ − 2 s₀ + s₊))`` (kept within half a
+        step).
 
     Returns
     -------
@@ -328,7 +334,28 @@ def correlative_match(source: ArrayLike, reference: LikelihoodField, initial: Ar
     pose = np.array([x0[0] + dx * res, x0[1] + dy * res, angles[k]])
     response = float(_score_at(reference.values, ix, iy, [k], [dx], [dy], method)[0])
     cov = _response_covariance(reference, ix, iy, angles, (k, dx, dy, response), method)
+    if subcell:
+        pose = pose + _vertex(src, reference, pose, res, step, method)
     return MatchResult(pose, cov, True, response=response)
+
+
+def _vertex(src: FloatArray, ref: LikelihoodField, pose: FloatArray, res: float, step: float,
+            method: Method) -> FloatArray:
+    """The offset from ``pose`` to the vertex of the parabola through the responses one
+    cell (x, y) or one angular step (θ) either side, per axis, within half a step."""
+    out = np.zeros(3)
+    for axis, h in ((0, res), (1, res), (2, step)):
+        scores = []
+        for sign in (-1.0, 0.0, 1.0):
+            p = pose.copy()
+            p[axis] += sign * h
+            ix, iy = _cells(src, ref, p, np.array([p[2]]))
+            scores.append(float(_score_at(ref.values, ix, iy, [0], [0], [0], method)[0]))
+        minus, centre, plus = scores
+        curvature = minus - 2.0 * centre + plus
+        if curvature < 0.0:
+            out[axis] = float(np.clip(0.5 * h * (minus - plus) / curvature, -0.5 * h, 0.5 * h))
+    return out
 
 
 def _score_at(values: FloatArray, ix: IntArray, iy: IntArray, k: ArrayLike, ox: ArrayLike,

@@ -117,7 +117,7 @@ def match_loop(record: LoopClosure, source: FloatArray, reference: FloatArray,
                                           margin=cfg.loop_linear_window + 0.5)
     coarse = correlative.correlative_match(source, field_, estimate, cfg.loop_linear_window,
                                            cfg.loop_angular_window, math.radians(0.5),
-                                           penalty=0.1)
+                                           coarse_factor=8, penalty=0.1)
     record.response = coarse.response
     spread = max(coarse.covariance[0, 0], coarse.covariance[1, 1])
     if coarse.response < cfg.loop_min_response:

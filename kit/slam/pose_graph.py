@@ -350,7 +350,11 @@ class PoseGraph:
     @property
     def poses(self) -> FloatArray:
         """``(N, 3)`` node poses (a copy)."""
-        return np.array(self._poses, dtype=np.float64).reshape(-1, 3)
+        stacked = self._cache.get("poses")
+        if stacked is None or len(stacked) != len(self._poses):
+            stacked = np.array(self._poses, dtype=np.float64).reshape(-1, 3)
+            self._cache["poses"] = stacked
+        return np.array(stacked)
 
     @poses.setter
     def poses(self, value: ArrayLike) -> None:
@@ -358,6 +362,7 @@ class PoseGraph:
         if p.shape != (len(self._poses), 3):
             raise ValueError(f"poses must have shape ({len(self._poses)}, 3); got {p.shape}")
         self._poses = list(p.copy())
+        self._cache["poses"] = np.array(p, dtype=np.float64)
 
     @property
     def num_nodes(self) -> int:
