@@ -34,3 +34,23 @@ def test_no_function_in_the_packages_is_over_80_lines():
                     if lines > 80:
                         long.append(f"{path.relative_to(root)}:{node.lineno} {node.name} ({lines})")
     assert not long, "functions over 80 lines: " + ", ".join(long)
+
+
+def test_no_module_of_the_kit_imports_the_simulator_grader_or_hardware():
+    """DESIGN: dependencies point one way (``kit`` ← ``sim`` ← ``hardware``, ``grader`` →
+    ``kit``); not even a lazy import inside a function may reach back up."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1]
+    upward = []
+    for path in sorted((root / "kit").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            else:
+                continue
+            upward += [f"{path.relative_to(root)}:{node.lineno} {n}" for n in names
+                       if n.split(".")[0] in ("sim", "grader", "hardware")]
+    assert not upward, "kit imports from above it: " + ", ".join(upward)

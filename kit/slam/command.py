@@ -1,5 +1,5 @@
-"""``kit slam LOG_OR_BAG [--relations FILE] [--format csv|tum] --out DIR``: SLAM over a
-CARMEN log or a ROS bag.
+"""``kit slam LOG_OR_BAG [--relations FILE] [--odometry-noise SEED] [--format csv|tum] --out
+DIR``: SLAM over a CARMEN log or a ROS bag.
 
 Writes into ``DIR``:
 
@@ -9,6 +9,10 @@ Writes into ``DIR``:
   (``timestamp tx ty tz qx qy qz qw``, as evo and the TUM tools read it): every scan's
   optimised ``T_map_base``; a CARMEN log's stamps are its IPC timestamps;
 * ``graph.g2o``: the optimised pose graph;
+* ``closures.csv``: every loop-closure attempt, accepted or not, with its figures and
+  the reason it was rejected;
+* ``scans.csv``: how each scan's pose was found and how many of its returns were dropped
+  as moving things;
 * with ``--relations``, ``errors.csv`` (the benchmark's metric per relation) and its summary
   on the terminal.
 """
@@ -41,11 +45,16 @@ def register(subparsers: Any) -> None:
                                      ".db3, .bag)")
     p.add_argument("--out", required=True, type=Path,
                    help="output folder: map.yaml, map.pgm, map.png, trajectory.csv (or .tum), "
-                        "graph.g2o[, errors.csv]")
+                        "graph.g2o, closures.csv, scans.csv[, errors.csv]")
     p.add_argument("--format", choices=clitext.TRAJECTORY_FORMATS, default="csv",
                    help="the trajectory's format (default csv; tum for evo)")
     p.add_argument("--relations", type=Path, help="Kümmerle et al. relations to score against")
     p.add_argument("--resolution", type=float, default=0.05, help="map cell size [m]")
+    p.add_argument("--odometry-noise", type=int, metavar="SEED",
+                   help="CARMEN logs: replace the log's odometry by its poses with a seeded "
+                        "wheel-like error (+2 %% distance, +1 %% turning, 0.01 rad/m drift, "
+                        "Gaussian noise per step; kit.slam.evaluate.perturb_odometry), for "
+                        "logs whose poses are already corrected")
     p.add_argument("--scan-topic", default="/scan", help="a bag's LaserScan topic (/scan)")
     p.add_argument("--odom-topic", default="/odom", help="a bag's Odometry topic (/odom)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -67,6 +76,8 @@ def _slam(args: argparse.Namespace) -> Slam:
     if not path.exists():
         raise ValueError(f"{path}: no such log or bag")
     if _is_bag(path):
+        if args.odometry_noise is not None:
+            raise ValueError("--odometry-noise applies to CARMEN logs, not to bags")
         from kit.bag import check_topic
 
         check_topic(path, args.scan_topic, "sensor_msgs/msg/LaserScan", "--scan-topic")
@@ -75,8 +86,12 @@ def _slam(args: argparse.Namespace) -> Slam:
         with _progress(len(recording.scans), args.quiet, "slam") as bar:
             return offline.run_bag(recording, progress=bar.update)
     log = carmen.read_carmen(path)
+    odometry = None
+    if args.odometry_noise is not None:
+        odometry = evaluate.perturb_odometry(np.array([r.robot_pose for r in log.lasers]),
+                                             args.odometry_noise)
     with _progress(len(log.lasers), args.quiet, "slam") as bar:
-        return offline.run_carmen(log, progress=bar.update)
+        return offline.run_carmen(log, progress=bar.update, odometry=odometry)
 
 
 def write_png(grid: np.ndarray, path: Path) -> None:
@@ -110,6 +125,44 @@ def write_figure(grid: Any, poses: np.ndarray, path: Path, title: str) -> None:
     plt.close(fig)
 
 
+def write_closures(slam: Slam, path: Path) -> None:
+    """Every loop-closure attempt: the nodes (and their scans' stamps), accepted or not and
+    why, the correlative response, the supports, the correction asked of the node and the
+    edge's χ² after optimisation (empty where a figure was not reached)."""
+    def num(v: float, digits: int = 4) -> str:
+        return "" if not np.isfinite(v) else f"{v:.{digits}f}"
+
+    stamp = [slam.records[n.scan_index].stamp if n.scan_index < len(slam.records) else np.nan
+             for n in slam.nodes]
+    with path.open("w", encoding="utf-8") as f:
+        f.write("node,node_stamp,candidate,candidate_stamp,reference,accepted,reason,response,"
+                "support,recent_support,shift_x,shift_y,shift_yaw,chi2\n")
+        for c in slam.closures:
+            reason = c.reason.replace(",", ";")
+            f.write(f"{c.node},{num(stamp[c.node], 6)},{c.candidate},"
+                    f"{num(stamp[c.candidate], 6)},{c.reference if c.reference >= 0 else ''},"
+                    f"{int(c.accepted)},{reason},{num(c.response)},{num(c.support)},"
+                    f"{num(c.recent_support)},{num(c.shift[0])},{num(c.shift[1])},"
+                    f"{num(c.shift[2])},{num(c.chi2, 2)}\n")
+
+
+def write_scans(slam: Slam, path: Path) -> None:
+    """Per scan: its stamp, the node it hangs from, how its pose was found (``icp``,
+    ``search``, ``odometry`` when every match was rejected, ``first``), the returns dropped
+    as moving, and for a node's own scan whether its edge to the previous node is the
+    match's, the odometry's, or the odometry's after the match edge was found inconsistent
+    (``replaced``)."""
+    replaced = set(slam.replaced_matches)
+    node_of_scan = {n.scan_index: k for k, n in enumerate(slam.nodes)}
+    with path.open("w", encoding="utf-8") as f:
+        f.write("stamp,node,matched,moving,edge\n")
+        for s, r in enumerate(slam.records):
+            k = node_of_scan.get(s)
+            edge = "" if k is None or k == 0 else "replaced" if k in replaced else \
+                "odometry" if r.matched == "odometry" else "match"
+            f.write(f"{r.stamp:.6f},{r.anchor},{r.matched},{r.moving},{edge}\n")
+
+
 def _run(args: argparse.Namespace) -> int:
     out = clitext.output_dir(args.out, make=False)
     relations = carmen.read_relations(args.relations) if args.relations else None
@@ -126,7 +179,10 @@ def _run(args: argparse.Namespace) -> int:
     trajectory = clitext.write_trajectory(out / f"trajectory.{args.format}", stamps, poses,
                                           args.format)
     write_g2o(slam.graph, out / "graph.g2o")
-    print(f"{summary}; wrote {out}/map.yaml, map.pgm, map.png, {trajectory.name}, graph.g2o")
+    write_closures(slam, out / "closures.csv")
+    write_scans(slam, out / "scans.csv")
+    print(f"{summary} of {len(slam.closures)} candidates; wrote {out}/map.yaml, map.pgm, "
+          f"map.png, {trajectory.name}, graph.g2o, closures.csv, scans.csv")
     if relations is not None:
         errors = evaluate.relation_errors(stamps, poses, relations)
         with (out / "errors.csv").open("w", encoding="utf-8") as f:

@@ -1,25 +1,35 @@
-"""The SLAM front end, in SLAM Toolbox's design (Macenski & Jambrecic, JOSS 2021; Karto).
+"""The SLAM front end, in SLAM Toolbox's design (Macenski & Jambrecic, JOSS 2021; Karto),
+built so that no single bad match can break the map.
 
 For every scan, with the odometry pose it was taken at:
 
 1. **Predict** the scan's pose in ``map`` from the last corrected scan and the odometry since.
-2. **Match** it against the local map — the scans of the last ``local_map_nodes`` nodes at
-   their current poses — by point-to-line ICP with the prediction as a prior
-   (:func:`kit.slam.scan_matching.icp`); a poor match keeps the prediction.
-3. **Add a node** when the robot has travelled ``min_travel`` metres or turned
+2. **Drop what moves**: returns that land where the recent scans have seen free space
+   (:class:`kit.slam.free_space.FreeSpace`) are people and other moving things; they neither
+   drive the match nor enter the map.
+3. **Match** the rest against the local map — the scans of the last ``local_map_nodes`` nodes
+   at their current poses — by point-to-line ICP held by the odometry as a prior
+   (:func:`kit.slam.scan_matching.icp`). A match must pass its gates: enough points paired,
+   small residuals, and a correction the odometry could have made (the Mahalanobis distance
+   of ``match − prediction`` under the odometry's covariance at most ``match_gate``). When it
+   fails them, a correlative search (:mod:`kit.slam.correlative`, which a wrong start cannot
+   trap) looks wider and ICP refines its answer; that answer is taken only if the two
+   matchers agree and it puts clearly more of the scan on the map (``far_match_gain``) than
+   the best fit near the odometry. Otherwise the scan keeps the odometry's prediction.
+4. **Add a node** when the robot has travelled ``min_travel`` metres or turned
    ``min_heading`` radians since the last one: the node's pose is the corrected pose, and an
-   edge to the previous node carries the match's relative pose and information.
-4. **Close loops** from a new node: nodes within ``loop_search_radius`` that were passed at
-   least ``loop_min_travel`` metres of driving ago are candidates; the scans around the
-   nearest one form a reference, the correlative matcher searches a window around the
-   current estimate, and a match whose *response* reaches ``loop_min_response`` and whose
-   covariance stays under ``loop_max_variance`` is refined by ICP and added as an edge (under
-   a Cauchy kernel, so one wrong closure cannot bend the map). The graph is then optimised
-   (Gauss–Newton) and every pose after it follows.
+   edge to the previous node carries the match's relative pose and information (under a
+   Cauchy kernel) — or, when the match was rejected, the odometry's.
+5. **Close loops** from a new node (:mod:`kit.slam.loops`: fit, a second matcher, agreement
+   with the map and with the drift odometry allows), then optimise the graph (Gauss–Newton),
+   and check every edge's χ² afterwards: the worst closure above ``closure_chi2`` is removed,
+   the worst match edge above ``match_chi2`` is replaced by the odometry's edge, and the graph
+   is solved again, until every edge agrees with the rest.
 
 Every scan's pose is kept relative to the node before it, so the trajectory follows the
 optimised graph; :meth:`Slam.occupancy_map` rebuilds the map from the nodes' scans at their
-optimised poses. ``map`` coincides with ``odom`` at the first scan.
+optimised poses, without the returns found to move. ``map`` coincides with ``odom`` at the
+first scan.
 
 Frames: the graph holds ``T_map_base``; scans become points in ``base`` through the fixed
 ``T_base_laser`` (the URDF's laser joint) and, when beam times and odometry are known, are
@@ -36,84 +46,19 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry, mapping, msgs, perception
+from kit.slam import correlative
 from kit.slam import scan_matching as sm
+from kit.slam.backend import Backend
+from kit.slam.config import SlamConfig
+from kit.slam.free_space import FreeSpace, laser_beams
+from kit.slam.loops import LoopClosure, match_loop
+from kit.slam.matching import Match, match_scan, prior_information, refine
 from kit.slam.pose_graph import PoseGraph
 
-__all__ = ["ScanRecord", "Slam", "SlamConfig", "map_beams", "relative_covariance", "scan_points"]
+__all__ = ["LoopClosure", "ScanRecord", "Slam", "SlamConfig", "map_beams", "relative_covariance",
+           "scan_points"]
 
 FloatArray = NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class SlamConfig:
-    """Front-end settings (SI units). Defaults follow SLAM Toolbox's where they exist."""
-
-    min_travel: float = 0.3
-    """New node after this much travel [m] (SLAM Toolbox: ``minimum_travel_distance``)."""
-    min_heading: float = 0.3
-    """… or this much turning [rad] (``minimum_travel_heading``)."""
-    local_map_nodes: int = 5
-    """Scans in the local map matched against (``scan_buffer_size``)."""
-    max_range: float = 25.0
-    """Returns farther than this [m] are not used for matching."""
-    point_spacing: float = 0.02
-    """Scan points are thinned to one per cell of this size [m]."""
-    icp: sm.IcpConfig = field(default_factory=sm.IcpConfig)
-    min_inliers: float = 0.3
-    """A match pairing fewer of its points than this fraction is not trusted."""
-    poor_rmse: float = 0.08
-    """An ICP match that did not converge, or whose residuals' RMS exceeds this [m], is
-    searched again correlatively; the search's answer is kept when it puts 5 % more of the
-    scan's points within 0.1 m of the local map."""
-    search_linear_window: float = 0.3
-    """Half-width [m] of that correlative search around the prediction."""
-    search_angular_window: float = math.radians(20.0)
-    """Half-width [rad] of that search (odometry's heading can jump this much)."""
-    search_prior_scale: float = 0.01
-    """The odometry prior's information is scaled by this for the ICP after the search."""
-    odometry_noise: tuple[float, float, float, float] = (0.1, 0.02, 0.2, math.radians(1.0))
-    """(α_xy, σ_xy, α_θ, σ_θ): the odometry between two scans is trusted to
-    ``α_xy d + σ_xy`` [m] and ``α_θ |Δθ| + σ_θ`` [rad] (d the distance driven); an assumption."""
-    min_edge_sigma: tuple[float, float] = (0.005, math.radians(0.2))
-    """Floor on an edge's standard deviation (m, rad): matches are not perfect."""
-    loop_search_radius: float = 4.0
-    """Loop-closure candidates lie within this distance [m] (``loop_search_maximum_distance``)."""
-    loop_min_travel: float = 10.0
-    """… and were passed at least this much driving [m] ago."""
-    loop_chain: int = 10
-    """Nodes on each side of the candidate whose scans form the loop's reference."""
-    loop_linear_window: float = 1.0
-    """Half-width of the correlative search [m]."""
-    loop_angular_window: float = 0.3
-    """Half-width of the correlative search [rad]."""
-    loop_resolution: float = 0.05
-    """Correlative grid cell [m]."""
-    loop_min_response: float = 0.45
-    """Minimum mean likelihood (``loop_match_minimum_response_fine``)."""
-    loop_max_variance: float = 0.05
-    """Maximum positional variance [m²] of an accepted match."""
-    loop_min_support: float = 0.7
-    """Share of the scan's points the refined match must put within 0.1 m of the reference."""
-    loop_max_shift: tuple[float, float] = (0.3, 0.03)
-    """A closure may move the node by at most ``a + b · d`` metres, ``d`` the driving [m]
-    since the candidate: the drift scan matching can have accumulated (an assumption)."""
-    loop_max_turn: tuple[float, float] = (math.radians(3.0), math.radians(0.3))
-    """… and turn it by at most ``a + b · d`` radians."""
-    loop_kernel_delta: float = 3.0
-    """Cauchy kernel width on loop edges (in √χ² units)."""
-    loop_every: int = 1
-    """Look for a loop at every n-th node."""
-    loop_cooldown: int = 10
-    """Nodes after an accepted closure before the next is looked for."""
-
-    def __post_init__(self) -> None:
-        if self.min_travel <= 0 or self.min_heading <= 0 or self.local_map_nodes < 1:
-            raise ValueError("min_travel, min_heading and local_map_nodes must be positive")
-        if self.max_range <= 0 or self.point_spacing < 0 or not 0 <= self.min_inliers <= 1:
-            raise ValueError("max_range must be positive, point_spacing >= 0, min_inliers in "
-                             "[0, 1]")
-
-
 @dataclass(frozen=True)
 class ScanRecord:
     """A scan's place in the trajectory: its pose relative to the node before it."""
@@ -124,6 +69,11 @@ class ScanRecord:
     """``T_anchor_base`` of this scan."""
     odometry: FloatArray
     """``T_odom_base`` of this scan."""
+    matched: str = "icp"
+    """How its pose was found: ``"icp"``, ``"search"`` (the wider correlative search),
+    ``"odometry"`` (every match was rejected), or ``"first"``."""
+    moving: int = 0
+    """Returns dropped as moving things."""
 
 
 def thin(points: FloatArray, spacing: float) -> FloatArray:
@@ -181,11 +131,19 @@ def relative_covariance(anchor: ArrayLike, covariance: ArrayLike) -> FloatArray:
 class _Node:
     scan_index: int
     points: FloatArray
-    """Thinned points in ``base``."""
+    """Thinned points in ``base``, without the returns found to move."""
     travelled: float
     """Distance driven from the start to this node [m]."""
     scan: msgs.LaserScan | None
     beam_motion: FloatArray | None
+    odometry: FloatArray = field(default_factory=lambda: np.zeros(3))
+    """``T_odom_base`` at this node."""
+    turned: float = 0.0
+    """Turning [rad] from the start to this node, summed."""
+    moving: NDArray[np.bool_] | None = None
+    """Per beam of ``scan``: a return found to move (kept out of the map)."""
+    beams: tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]] | None = None
+    """Every beam's end in ``base``, and which are valid returns and max-range beams."""
     normals: FloatArray | None = None
     """Normals of the usable ``points[usable]`` (estimated once, from this scan alone)."""
     usable: NDArray[np.bool_] | None = None
@@ -202,6 +160,31 @@ class _Node:
         return self.points[self.usable], self.normals
 
 
+def _beam_ends(scan: msgs.LaserScan, base_to_laser: ArrayLike, beam_motion: FloatArray | None
+               ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
+    """Every beam's end in ``base`` at the scan's stamp (``(N, 2)``, de-skewed like
+    :func:`scan_points`): at its range for a valid return, at ``range_max`` for a beam that
+    saw nothing (REP-117), NaN otherwise; and the masks of valid and max-range beams."""
+    r = np.asarray(scan.ranges, dtype=np.float64)
+    valid = perception.valid_returns(scan)
+    clear = perception.max_range_beams(scan)
+    length = np.where(valid, np.nan_to_num(r), np.where(clear, float(scan.range_max), np.nan))
+    a = perception.beam_angles(scan)
+    local = np.column_stack([length * np.cos(a), length * np.sin(a)])
+    mount = geometry.check_pose(base_to_laser)
+    if beam_motion is None:
+        return geometry.transform_points(mount, local), valid, clear
+    motion = np.asarray(beam_motion, dtype=np.float64)
+    if motion.shape != (len(r), 3):
+        raise ValueError(f"beam_motion needs one pose per beam, shape ({len(r)}, 3); got "
+                         f"{motion.shape}")
+    sensor = geometry.compose(motion, mount)
+    c, s = np.cos(sensor[:, 2]), np.sin(sensor[:, 2])
+    ends = np.column_stack([sensor[:, 0] + c * local[:, 0] - s * local[:, 1],
+                            sensor[:, 1] + s * local[:, 0] + c * local[:, 1]])
+    return ends, valid, clear
+
+
 class Slam:
     """Online graph SLAM: feed :meth:`add_scan` one scan and its odometry at a time.
 
@@ -211,24 +194,63 @@ class Slam:
         ``T_base_laser`` (x, y, θ) of the scanner on the robot.
     config
         :class:`SlamConfig`.
+
+    Attributes
+    ----------
+    graph : PoseGraph
+        The nodes (``T_map_base`` of the scans that became nodes) and their edges.
+    records : list of ScanRecord
+        Every scan's place in the trajectory, and how its pose was found.
+    closures : list of LoopClosure
+        Every loop-closure attempt, accepted or not, with its figures and reason.
+    replaced_matches : list of int
+        Nodes whose match edge the back end replaced by the odometry's after an
+        optimisation (its χ² above ``match_chi2``).
     """
+
+    MOVING_SHARE = 0.3
+    """When more of a scan than this looks like moving things, the pose it was tested at is
+    more likely off than the world full of people: nothing is dropped."""
 
     def __init__(self, base_to_laser: ArrayLike = (0.0, 0.0, 0.0),
                  config: SlamConfig | None = None) -> None:
         self.config = config or SlamConfig()
+        cfg = self.config
         self.base_to_laser = geometry.check_pose(base_to_laser, "base_to_laser").copy()
-        self.graph = PoseGraph()
+        self.backend = Backend(cfg)
         self.records: list[ScanRecord] = []
         self.nodes: list[_Node] = []
-        self.loop_closures: list[tuple[int, int]] = []
         self._last_pose: FloatArray | None = None   # T_map_base of the last scan
         self._last_odom: FloatArray | None = None
         self._travelled = 0.0
+        self._turned = 0.0
         self._reference: sm.PointCloudReference | None = None
         self._reference_key: tuple[int, int] = (-1, -1)
-        self._field: tuple[tuple[int, int], FloatArray, sm.LikelihoodField] | None = None
+        self._field: tuple[tuple[int, int], FloatArray, correlative.LikelihoodField] | None = None
         self._optimisations = 0
         self._last_closure = -(10**9)
+        self._free = FreeSpace(0.05, cfg.dynamic_margin, 0.25, cfg.dynamic_range) \
+            if cfg.dynamic_margin > 0 else None
+
+    @property
+    def graph(self) -> PoseGraph:
+        """The pose graph (:class:`kit.slam.backend.Backend` keeps its edges' kinds)."""
+        return self.backend.graph
+
+    @property
+    def closures(self) -> list[LoopClosure]:
+        """Every loop-closure attempt, accepted or not, with its figures and reason."""
+        return self.backend.closures
+
+    @property
+    def replaced_matches(self) -> list[int]:
+        """Nodes whose match edge the back end dropped after a solve."""
+        return self.backend.replaced_matches
+
+    @property
+    def loop_closures(self) -> list[tuple[int, int]]:
+        """``(reference node, node)`` of every closure in the graph now."""
+        return self.backend.loop_closures
 
     # ------------------------------------------------------------------ the loop
     def add_scan(self, scan: msgs.LaserScan, odometry: ArrayLike, stamp: float | None = None,
@@ -244,68 +266,78 @@ class Slam:
             raise ValueError(f"odometry is one pose (x, y, θ); got shape {odom.shape}")
         t = scan.header.stamp.to_sec() if stamp is None else float(stamp)
         cfg = self.config
-        points = thin(scan_points(scan, self.base_to_laser, beam_motion, cfg.max_range),
-                      cfg.point_spacing)
+        ends, valid, clear = _beam_ends(scan, self.base_to_laser, beam_motion)
+        r = np.asarray(scan.ranges, dtype=np.float64)
+        usable = valid & (np.nan_to_num(r) <= cfg.max_range)
+        full = ends[usable]
         if self._last_pose is None or self._last_odom is None:
-            return self._first(scan, odom, t, points, beam_motion)
+            return self._first(scan, odom, t, (ends, valid, clear), beam_motion)
         step = geometry.relative(self._last_odom, odom)
         self._travelled += float(np.hypot(step[0], step[1]))
+        self._turned += abs(float(step[2]))
         predicted = geometry.compose(self._last_pose, step)
-        pose, covariance = self._match(points, predicted, step)
+        moving = self._moving(full, predicted)
+        points = thin(full[~moving], cfg.point_spacing)
+        match = self._match(points, predicted, step)
+        again = self._moving(full, match.pose)
+        if np.any(again & ~moving):
+            moving |= again
+            points = thin(full[~moving], cfg.point_spacing)
+            match = self._refine(points, match, step)
         anchor = len(self.nodes) - 1
-        node_pose = self.graph.poses[anchor]
-        since = geometry.relative(node_pose, pose)
+        since = geometry.relative(self.graph.poses[anchor], match.pose)
+        pose = match.pose
         if math.hypot(since[0], since[1]) >= cfg.min_travel or abs(since[2]) >= cfg.min_heading:
-            anchor = self._add_node(scan, pose, covariance, points, beam_motion, anchor)
+            beam_moving = np.zeros(len(r), dtype=bool)
+            beam_moving[np.flatnonzero(usable)[moving]] = True
+            anchor = self._add_node(scan, match, points, (ends, valid, clear), beam_moving,
+                                    beam_motion, odom, anchor)
             pose = self.graph.poses[anchor]
             since = np.zeros(3)
-        self.records.append(ScanRecord(t, anchor, since, odom.copy()))
+        self.records.append(ScanRecord(t, anchor, since, odom.copy(), match.how,
+                                       int(moving.sum())))
         self._last_pose, self._last_odom = pose, odom.copy()
         return pose
 
-    def _first(self, scan: msgs.LaserScan, odom: FloatArray, t: float, points: FloatArray,
+    def _first(self, scan: msgs.LaserScan, odom: FloatArray, t: float,
+               beams: tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]],
                beam_motion: FloatArray | None) -> FloatArray:
+        ends, valid, _ = beams
+        r = np.nan_to_num(np.asarray(scan.ranges, dtype=np.float64))
+        points = thin(ends[valid & (r <= self.config.max_range)], self.config.point_spacing)
         self.graph.add_node(odom)
-        self.nodes.append(_Node(0, points, 0.0, scan, beam_motion))
-        self.records.append(ScanRecord(t, 0, np.zeros(3), odom.copy()))
+        self.nodes.append(_Node(0, points, 0.0, scan, beam_motion, odom.copy(), 0.0,
+                                np.zeros(len(r), dtype=bool), beams))
+        self._insert_free(0)
+        self.records.append(ScanRecord(t, 0, np.zeros(3), odom.copy(), "first"))
         self._last_pose, self._last_odom = odom.copy(), odom.copy()
         return odom.copy()
 
-    def _prior_information(self, step: FloatArray) -> FloatArray:
-        a_xy, s_xy, a_th, s_th = self.config.odometry_noise
-        d = float(np.hypot(step[0], step[1]))
-        sd_xy, sd_th = a_xy * d + s_xy, a_th * abs(float(step[2])) + s_th
-        # isotropic in x and y, so the same in the map frame as in the robot's
-        return np.diag([1 / sd_xy**2, 1 / sd_xy**2, 1 / sd_th**2])
-
-    def _match(self, points: FloatArray, predicted: FloatArray, step: FloatArray
-               ) -> tuple[FloatArray, FloatArray]:
-        """ICP of the scan against the local map, from and held by the prediction; when that
-        match looks poor, a correlative search around the prediction (which a wrong start
-        cannot trap) followed by ICP from its answer, keeping the better of the two."""
-        omega = self._prior_information(step)
+    def _match(self, points: FloatArray, predicted: FloatArray, step: FloatArray) -> Match:
+        """The scan's pose against the local map (:func:`kit.slam.matching.match_scan`)."""
+        omega = prior_information(step, self.config.odometry_noise)
         ref = self._local_reference()
-        fallback = (predicted, np.asarray(np.linalg.inv(omega), dtype=np.float64))
-        if ref is None or len(points) < 10:
-            return fallback
-        result = sm.icp(points, ref, predicted, omega)
-        if result.converged and result.rmse <= self.config.poor_rmse:
-            return result.pose, result.covariance
-        support = _support(points, ref, result.pose)
-        field = self._local_field(ref, predicted)
-        if field is not None:
-            cfg = self.config
-            coarse = sm.correlative_match(points, field, predicted, cfg.search_linear_window,
-                                          cfg.search_angular_window, math.radians(0.5))
-            second = sm.icp(points, ref, coarse.pose, omega * cfg.search_prior_scale)
-            if _support(points, ref, second.pose) > support + 0.05:
-                result = second
-        if result.inlier_fraction < self.config.min_inliers:
-            return fallback
-        return result.pose, result.covariance
+        return match_scan(points, predicted, omega, ref,
+                          lambda: self._local_field(ref, predicted) if ref else None,
+                          self.config)
 
+    def _refine(self, points: FloatArray, match: Match, step: FloatArray) -> Match:
+        """ICP again from ``match`` once more returns were found to move."""
+        omega = prior_information(step, self.config.odometry_noise)
+        return refine(points, match, omega, self._local_reference(), self.config)
+
+    def _moving(self, points: FloatArray, pose: FloatArray) -> NDArray[np.bool_]:
+        """Which ``points`` (``base``) at ``pose`` lie in free space the recent scans saw."""
+        if self._free is None or len(points) == 0:
+            return np.zeros(len(points), dtype=bool)
+        moving = self._free.moving(geometry.transform_points(pose, points))
+        if moving.mean() > self.MOVING_SHARE:
+            return np.zeros(len(points), dtype=bool)
+        return moving
+
+    # ------------------------------------------------------------------ the local map
     def _local_field(self, ref: sm.PointCloudReference, around: FloatArray
-                     ) -> sm.LikelihoodField | None:
+                     ) -> correlative.LikelihoodField | None:
         """The local map's likelihood field within ``max_range`` of ``around`` (cached while
         the local map stays)."""
         cached = self._field
@@ -316,10 +348,10 @@ class Slam:
         near = ref.points[np.hypot(*(ref.points - around[:2]).T) <= cfg.max_range]
         if len(near) < 10:
             return None
-        field = sm.likelihood_field(near, cfg.loop_resolution, cfg.loop_resolution,
-                                    margin=cfg.search_linear_window + 0.5)
-        self._field = (self._reference_key, around[:2].copy(), field)
-        return field
+        field_ = correlative.likelihood_field(near, cfg.loop_resolution, cfg.loop_resolution,
+                                              margin=cfg.search_linear_window + 0.5)
+        self._field = (self._reference_key, around[:2].copy(), field_)
+        return field_
 
     def _local_reference(self) -> sm.PointCloudReference | None:
         key = (len(self.nodes), self._optimisations)
@@ -346,27 +378,58 @@ class Slam:
         ref = sm.PointCloudReference(np.vstack(points), self.config.icp, np.vstack(normals))
         return ref if ref.tree is not None else None
 
-    def _add_node(self, scan: msgs.LaserScan, pose: FloatArray, covariance: FloatArray,
-                  points: FloatArray, beam_motion: FloatArray | None, previous: int) -> int:
+    def _insert_free(self, index: int) -> None:
+        """Node ``index``'s beams into the free space (its moving returns only clear)."""
+        free, node = self._free, self.nodes[index]
+        if free is None or node.beams is None:
+            return
+        if free.scans >= 2 * self.config.dynamic_nodes:  # forget the older nodes
+            self._rebuild_free()
+            return
+        ends, valid, clear = node.beams
+        used = valid | clear
+        moving = node.moving if node.moving is not None else np.zeros(len(valid), bool)
+        sensor, in_map = laser_beams(self.graph.poses[index], self.base_to_laser, ends[used])
+        free.insert(sensor, in_map, (valid & ~moving)[used])
+
+    def _rebuild_free(self) -> None:
+        if self._free is None:
+            return
+        self._free.clear()
+        first = max(0, len(self.nodes) - self.config.dynamic_nodes)
+        for k in range(first, len(self.nodes)):
+            self._insert_free(k)
+
+    # ------------------------------------------------------------------ the graph
+    def _add_node(self, scan: msgs.LaserScan, match: Match, points: FloatArray,
+                  beams: tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]],
+                  moving: NDArray[np.bool_], beam_motion: FloatArray | None,
+                  odom: FloatArray, previous: int) -> int:
         cfg = self.config
         prev_pose = self.graph.poses[previous]
-        index = self.graph.add_node(pose)
-        self.nodes.append(_Node(len(self.records), points, self._travelled, scan, beam_motion))
-        info = self._edge_information(relative_covariance(prev_pose, covariance))
-        self.graph.add_edge(previous, index, geometry.relative(prev_pose, pose), info)
+        index = self.graph.add_node(match.pose)
+        self.nodes.append(_Node(len(self.records), points, self._travelled, scan, beam_motion,
+                                odom.copy(), self._turned, moving, beams))
+        self._add_odometry_edge(previous, index)
+        if match.how != "odometry":
+            self.backend.add_match(previous, index, geometry.relative(prev_pose, match.pose),
+                                   relative_covariance(prev_pose, match.scan_covariance()))
+        self._insert_free(index)
         due = index % max(cfg.loop_every, 1) == 0 and \
             index - self._last_closure > cfg.loop_cooldown
         if due and self._close_loop(index):
             self._last_closure = index
-            self.graph.optimize("gn", max_iterations=10, tolerance=1e-6)
-            self._optimisations += 1
         return index
 
-    def _edge_information(self, covariance: FloatArray) -> FloatArray:
-        """``Σ⁻¹``, with the standard deviations floored at ``min_edge_sigma``."""
-        sd_xy, sd_th = self.config.min_edge_sigma
-        cov = 0.5 * (covariance + covariance.T) + np.diag([sd_xy**2, sd_xy**2, sd_th**2])
-        return np.asarray(np.linalg.inv(cov))
+    def _add_odometry_edge(self, i: int, j: int) -> None:
+        """The odometry's relative pose between nodes ``i`` and ``j``, trusted to the
+        odometry model over the driving and turning between them."""
+        a_xy, s_xy, a_th, s_th = self.config.odometry_noise
+        ni, nj = self.nodes[i], self.nodes[j]
+        sd_xy = a_xy * (nj.travelled - ni.travelled) + s_xy
+        sd_th = a_th * (nj.turned - ni.turned) + s_th
+        self.backend.add_odometry(i, j, geometry.relative(ni.odometry, nj.odometry), sd_xy,
+                                  sd_th)
 
     # ------------------------------------------------------------------ loop closure
     def loop_candidate(self, index: int) -> int | None:
@@ -383,6 +446,8 @@ class Slam:
         return int(old[k]) if d[k] <= cfg.loop_search_radius else None
 
     def _close_loop(self, index: int) -> bool:
+        """Search for a closure from node ``index`` (:func:`kit.slam.loops.match_loop`);
+        an accepted one enters the graph under a Cauchy kernel and the graph is solved."""
         cfg = self.config
         candidate = self.loop_candidate(index)
         if candidate is None or len(self.nodes[index].points) < 20:
@@ -394,40 +459,35 @@ class Slam:
         reference = thin(np.vstack(clouds), cfg.point_spacing)
         if len(reference) < 20:
             return False
-        source = self.nodes[index].points
-        field = sm.likelihood_field(reference, cfg.loop_resolution, cfg.loop_resolution,
-                                    margin=cfg.loop_linear_window + 0.5)
-        coarse = sm.correlative_match(source, field, poses[index], cfg.loop_linear_window,
-                                      cfg.loop_angular_window,
-                                      angular_step=math.radians(0.5))
-        if coarse.response < cfg.loop_min_response or \
-                max(coarse.covariance[0, 0], coarse.covariance[1, 1]) > cfg.loop_max_variance:
-            return False
-        ref = sm.PointCloudReference(reference, cfg.icp)
-        if ref.tree is None:
-            return False
-        fine = sm.icp(source, ref, coarse.pose)
-        if not fine.converged or _support(source, ref, fine.pose) < cfg.loop_min_support:
-            return False
-        # the correction must be one the drift since the candidate could have caused
+        record = LoopClosure(index, candidate)
+        recent = [geometry.transform_points(poses[k], self.nodes[k].points)
+                  for k in range(max(candidate + 1, index - cfg.loop_recent_nodes), index)]
         travel = self.nodes[index].travelled - self.nodes[candidate].travelled
-        shift = geometry.relative(poses[index], fine.pose)
-        if math.hypot(shift[0], shift[1]) > cfg.loop_max_shift[0] + cfg.loop_max_shift[1] * \
-                travel or abs(shift[2]) > cfg.loop_max_turn[0] + cfg.loop_max_turn[1] * travel:
+        fine = match_loop(record, self.nodes[index].points, reference, poses[index],
+                          np.vstack(recent) if recent else np.zeros((0, 2)), travel, cfg)
+        if fine is None:
+            self.backend.closures.append(record)
             return False
         nearest = min(chain, key=lambda k: float(np.hypot(*(poses[k, :2] - fine.pose[:2]))))
-        info = self._edge_information(relative_covariance(poses[nearest], fine.covariance))
-        self.graph.add_edge(nearest, index, geometry.relative(poses[nearest], fine.pose), info,
-                            kernel="cauchy", delta=cfg.loop_kernel_delta)
-        self.loop_closures.append((nearest, index))
-        return True
+        record.reference = nearest
+        record.measurement = geometry.relative(poses[nearest], fine.pose)
+        record.covariance = relative_covariance(poses[nearest], fine.covariance)
+        if self.backend.propose(record):
+            self._optimised()
+        return record.accepted
 
     # ------------------------------------------------------------------ results
     def optimize(self, iterations: int = 20) -> None:
-        """A final solve of the whole graph (after the last scan)."""
+        """A final solve of the whole graph (after the last scan), with the edges' χ²
+        checked as after every closure."""
         if self.graph.num_edges:
-            self.graph.optimize("gn", max_iterations=iterations, tolerance=1e-9)
-            self._optimisations += 1
+            self.backend.optimise(iterations, 1e-9)
+            self._optimised()
+
+    def _optimised(self) -> None:
+        """After a solve: the local map and the free space follow the new poses."""
+        self._optimisations += 1
+        self._rebuild_free()
 
     def trajectory(self) -> tuple[FloatArray, FloatArray]:
         """``(stamps (N,), poses (N, 3))``: every scan's ``T_map_base`` from the current
@@ -445,29 +505,24 @@ class Slam:
                       progress: Callable[[int], object] | None = None,
                       update: Callable[..., ArrayLike] | None = None
                       ) -> mapping.OccupancyGridMap:
-        """The map rebuilt from every node's scan (de-skewed) at its optimised pose
-        (``update``: see :class:`kit.mapping.OccupancyGridMap`)."""
+        """The map rebuilt from every node's scan (de-skewed) at its optimised pose; returns
+        found to move only clear the cells their beams crossed (``update``: see
+        :class:`kit.mapping.OccupancyGridMap`)."""
         grid = mapping.OccupancyGridMap(resolution, model=model, update=update)
         poses = self.graph.poses
         for k, node in enumerate(self.nodes):
             if node.scan is not None:
                 ends, hits = map_beams(node.scan, self.base_to_laser, node.beam_motion,
                                        grid.model.max_clear_range)
+                if node.moving is not None:
+                    used = perception.valid_returns(node.scan) | \
+                        perception.max_range_beams(node.scan)
+                    hits = hits & ~node.moving[used]
                 laser = geometry.compose(poses[k], self.base_to_laser)
                 grid.insert_points(laser[:2], geometry.transform_points(poses[k], ends), hits)
             if progress is not None:
                 progress(1)
         return grid
-
-
-def _support(points: FloatArray, ref: sm.PointCloudReference, pose: FloatArray,
-             within: float = 0.1) -> float:
-    """Share of ``points`` placed at ``pose`` that lie within ``within`` metres of the
-    reference: how well two candidate matches agree with the local map."""
-    assert ref.tree is not None
-    d, _ = ref.tree.query(geometry.transform_points(pose, points), k=1,
-                          distance_upper_bound=within)
-    return float(np.mean(d < np.inf))
 
 
 def map_beams(scan: msgs.LaserScan, base_to_laser: ArrayLike, beam_motion: FloatArray | None,

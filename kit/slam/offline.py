@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry, msgs, tf
 from kit.slam.carmen import CarmenLog, laser_to_scan
@@ -26,16 +26,26 @@ FloatArray = NDArray[np.float64]
 
 
 def run_carmen(log: CarmenLog, config: SlamConfig | None = None,
-               progress: Callable[[int], object] | None = None) -> Slam:
+               progress: Callable[[int], object] | None = None,
+               odometry: ArrayLike | None = None) -> Slam:
     """SLAM over a CARMEN log's laser messages with their odometry fields (FLASER's
-    ``odom_*``; ROBOTLASER1's robot pose), the laser mounted as the log says."""
+    ``odom_*``; ROBOTLASER1's robot pose), the laser mounted as the log says.
+
+    ``odometry`` ``(N, 3)``, one pose per laser message, replaces the log's (for instance
+    :func:`kit.slam.evaluate.perturb_odometry` of a log whose poses are already corrected).
+    """
     if not log.lasers:
         raise ValueError("the log has no laser messages")
     first = log.lasers[0]
     mount = geometry.relative(first.robot_pose, first.laser_pose)
+    odom = np.array([r.robot_pose for r in log.lasers]) if odometry is None else \
+        geometry.check_pose(odometry, "odometry")
+    if odom.shape != (len(log.lasers), 3):
+        raise ValueError(f"odometry needs one pose per laser message, shape "
+                         f"({len(log.lasers)}, 3); got {odom.shape}")
     slam = Slam(mount, config)
-    for record in log.lasers:
-        slam.add_scan(laser_to_scan(record), record.robot_pose, record.timestamp)
+    for record, pose in zip(log.lasers, odom, strict=True):
+        slam.add_scan(laser_to_scan(record), pose, record.timestamp)
         if progress is not None:
             progress(1)
     slam.optimize()
@@ -65,8 +75,7 @@ def read_bag_recording(path: str | Path, scan_topic: str = "/scan",
         No scans or no odometry on the topics, or no transform from the odometry's child
         frame to the scan's frame.
     """
-    # the bag reader lives in sim.bag until it moves to kit.bag
-    from sim.bag import read_bag
+    from kit.bag import read_bag  # rosbags is imported only when a bag is read
 
     tree = tf.TransformTree(cache_time=1e9)
     scans: list[msgs.LaserScan] = []

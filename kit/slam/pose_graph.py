@@ -350,7 +350,11 @@ class PoseGraph:
     @property
     def poses(self) -> FloatArray:
         """``(N, 3)`` node poses (a copy)."""
-        return np.array(self._poses, dtype=np.float64).reshape(-1, 3)
+        stacked = self._cache.get("poses")
+        if stacked is None or len(stacked) != len(self._poses):
+            stacked = np.array(self._poses, dtype=np.float64).reshape(-1, 3)
+            self._cache["poses"] = stacked
+        return np.array(stacked)
 
     @poses.setter
     def poses(self, value: ArrayLike) -> None:
@@ -358,6 +362,7 @@ class PoseGraph:
         if p.shape != (len(self._poses), 3):
             raise ValueError(f"poses must have shape ({len(self._poses)}, 3); got {p.shape}")
         self._poses = list(p.copy())
+        self._cache["poses"] = np.array(p, dtype=np.float64)
 
     @property
     def num_nodes(self) -> int:
@@ -388,16 +393,64 @@ class PoseGraph:
         """``Σ eᵀ Ω e`` at the current poses (kernels not applied)."""
         return chi2(self.poses, *self.edges())
 
-    def cost(self, poses: FloatArray | None = None) -> float:
-        """``Σ ρ(eᵀ Ω e)``: the objective :meth:`optimize` minimises."""
+    def copy(self) -> PoseGraph:
+        """An independent graph with the same nodes, edges, kernels and fixed nodes."""
+        graph = PoseGraph(ids=list(self.ids), fixed=set(self.fixed))
+        graph._poses = [p.copy() for p in self._poses]
+        graph._edges = [tuple(a.copy() for a in block) for block in self._edges]
+        return graph
+
+    def edge_chi2(self, poses: FloatArray | None = None) -> FloatArray:
+        """Every edge's own ``eᵀ Ω e`` (kernels not applied), shape ``(E,)``, in the order of
+        :meth:`edges`: after an optimisation, an edge the others disagree with stands out.
+
+        >>> g = PoseGraph()
+        >>> for pose in ([0, 0, 0], [1, 0, 0]):
+        ...     _ = g.add_node(pose)
+        >>> g.add_edge(0, 1, [1.5, 0, 0], np.eye(3) * 4)
+        >>> g.edge_chi2().tolist()
+        [1.0]
+        """
         p = self.poses if poses is None else poses
         i, j, z, omega = self.edges()
         e = edge_errors(p, i, j, z)
-        return float(self._robust(np.einsum("ei,eij,ej->e", e, omega, e))[0].sum())
+        return np.asarray(np.einsum("ei,eij,ej->e", e, omega, e), dtype=np.float64)
 
-    def _robust(self, s: FloatArray) -> tuple[FloatArray, FloatArray]:
-        kinds, deltas = self._kernels()
+    def remove_edges(self, indices: ArrayLike) -> None:
+        """Drop the edges at ``indices`` (positions in :meth:`edges`); the rest keep their
+        order, kernels and information.
+
+        Raises
+        ------
+        PoseGraphError
+            An index that names no edge.
+        """
+        drop = np.asarray(indices, dtype=np.int64).ravel()
+        n = self.num_edges
+        if np.any((drop < 0) | (drop >= n)):
+            raise PoseGraphError(f"edge indices must lie in 0..{n - 1}; got {drop.tolist()}")
+        if len(drop) == 0:
+            return
+        self.edges()
+        keep = np.ones(n, dtype=bool)
+        keep[drop] = False
+        arrays = self._cache["edges"]
+        self._edges = [tuple(a[keep] for a in arrays)]
+        self._cache.clear()
+
+    def cost(self, poses: FloatArray | None = None, robust: bool = True) -> float:
+        """``Σ ρ(eᵀ Ω e)``: the objective :meth:`optimize` minimises (``robust=False``: the
+        plain ``Σ eᵀ Ω e``, every kernel off)."""
+        p = self.poses if poses is None else poses
+        i, j, z, omega = self.edges()
+        e = edge_errors(p, i, j, z)
+        return float(self._robust(np.einsum("ei,eij,ej->e", e, omega, e), robust)[0].sum())
+
+    def _robust(self, s: FloatArray, robust: bool = True) -> tuple[FloatArray, FloatArray]:
         rho, weight = s.copy(), np.ones_like(s)
+        if not robust:
+            return rho, weight
+        kinds, deltas = self._kernels()
         for k, name in enumerate(KERNELS[1:], start=1):
             sel = kinds == k
             if sel.any():
@@ -405,9 +458,11 @@ class PoseGraph:
         return rho, weight
 
     # ------------------------------------------------------------------ solving
-    def linearize(self, poses: FloatArray | None = None) -> tuple[Any, FloatArray, float]:
+    def linearize(self, poses: FloatArray | None = None, robust: bool = True
+                  ) -> tuple[Any, FloatArray, float]:
         """The reduced normal equations at ``poses``: ``H`` (upper triangle, CSC, over the
-        free nodes' variables), the gradient ``g`` and the objective.
+        free nodes' variables), the gradient ``g`` and the objective (``robust=False``:
+        every kernel off).
 
         ``H = Σ Jᵀ w Ω J`` and ``g = Σ Jᵀ w Ω e`` with ``J = [A B]`` placed at the edge's two
         nodes and ``w = ρ'(eᵀΩe)`` (1 without a kernel).
@@ -421,7 +476,7 @@ class PoseGraph:
         st = self._structure()
         e, A, B = _errors_and_jacobians(p, i, j, z)
         s = np.einsum("ei,eij,ej->e", e, omega, e)
-        rho, w = self._robust(s)
+        rho, w = self._robust(s, robust)
         W = omega * w[:, None, None]
         WA, WB = W @ A, W @ B
         At, Bt = A.transpose(0, 2, 1), B.transpose(0, 2, 1)
@@ -451,6 +506,52 @@ class PoseGraph:
             self._cache["structure"] = st
         return st
 
+    def relative_marginal(self, i: int, j: int) -> tuple[FloatArray, FloatArray]:
+        """Node ``j`` seen from node ``i`` at the current poses, ``z = x_i⁻¹ ⊕ x_j``, and its
+        covariance under the graph's linearisation: ``J H⁻¹ Jᵀ`` with ``J = [A B]`` the
+        Jacobians of :func:`edge_error` at ``z`` and ``H⁻¹`` the two nodes' joint block of the
+        inverse normal matrix (robust kernels' weights included). How far a new measurement
+        of ``z`` may disagree with everything the graph already knows.
+
+        >>> g = PoseGraph()
+        >>> for pose in ([0, 0, 0], [1, 0, 0], [2, 0, 0]):
+        ...     _ = g.add_node(pose)
+        >>> g.add_edge(0, 1, [1, 0, 0], np.eye(3))
+        >>> g.add_edge(1, 2, [1, 0, 0], np.eye(3))
+        >>> z, cov = g.relative_marginal(1, 2)
+        >>> z.tolist(), np.diag(cov).round(6).tolist()
+        ([1.0, 0.0, 0.0], [1.0, 1.0, 1.0])
+        """
+        n = self.num_nodes
+        if not (0 <= i < n and 0 <= j < n) or i == j:
+            raise PoseGraphError(f"relative_marginal needs two different nodes in 0..{n - 1}; "
+                                 f"got {i}, {j}")
+        poses = self.poses
+        H, _, _ = self.linearize(poses)
+        st = self._structure()
+        columns = [int(st.var[k]) + r for k in (i, j) if st.var[k] >= 0 for r in range(3)]
+        block = np.zeros((6, 6))
+        if columns:
+            import qdldl
+
+            try:
+                solver = qdldl.Solver(H)
+            except (ValueError, RuntimeError) as exc:
+                raise PoseGraphError(f"the normal equations are singular ({exc})") from None
+            unit = np.zeros(st.n_vars)
+            inv_cols = np.empty((st.n_vars, len(columns)))
+            for k, c in enumerate(columns):
+                unit[c] = 1.0
+                inv_cols[:, k] = solver.solve(unit)
+                unit[c] = 0.0
+            rows = [(0 if k == i else 3) + r for k in (i, j) if st.var[k] >= 0 for r in range(3)]
+            block[np.ix_(rows, rows)] = inv_cols[columns]
+        z = geometry.relative(poses[i], poses[j])
+        A, B = edge_jacobians(poses[i], poses[j], z)
+        J = np.hstack([A, B])
+        cov = J @ block @ J.T
+        return z, np.asarray(0.5 * (cov + cov.T), dtype=np.float64)
+
     def _apply(self, poses: FloatArray, dx: FloatArray) -> FloatArray:
         st = self._structure()
         free = st.var >= 0
@@ -460,7 +561,7 @@ class PoseGraph:
         return new
 
     def optimize(self, method: str = "gn", max_iterations: int = 50,
-                 tolerance: float = 1e-9, initial_lambda: float = 1e-4,
+                 tolerance: float = 1e-9, initial_lambda: float = 1e-4, robust: bool = True,
                  step: GaussNewtonStep | None = None) -> OptimizationResult:
         """Minimise ``Σ ρ(eᵀΩe)`` over the free nodes' poses; updates :attr:`poses`.
 
@@ -474,6 +575,10 @@ class PoseGraph:
             Linearisations at most.
         tolerance
             Stop when the cost falls by less than this fraction in an iteration.
+        robust
+            ``False`` turns every edge's kernel off: plain least squares, whose basin is
+            wide (a robust kernel barely pulls at an edge far from being met), as a first
+            solve before the robust one.
         step
             A Gauss–Newton step written elsewhere (a lab's), used for each iteration in
             place of the sparse solve: ``step(poses (N, 3), edges) -> new poses (N, 3)``
@@ -491,10 +596,10 @@ class PoseGraph:
             if method != "gn" or self.fixed != {0}:
                 raise ValueError("a step function needs method 'gn' and node 0 as the one "
                                  "fixed node")
-            return self._optimize_with(step, max_iterations, tolerance)
+            return self._optimize_with(step, max_iterations, tolerance, robust)
         solver = self._cache.setdefault("solver", _Cholesky())
         poses = self.poses
-        H, g, cost = self.linearize(poses)
+        H, g, cost = self.linearize(poses, robust)
         initial, history = cost, [cost]
         lam, converged, it = initial_lambda, False, 0
         for it in range(1, max_iterations + 1):  # noqa: B007 - it is reported
@@ -502,7 +607,7 @@ class PoseGraph:
             if method == "gn":
                 dx = -solver.solve(H, g, st.key)
                 new_poses = self._apply(poses, dx)
-                H_new, g_new, new_cost = self.linearize(new_poses)
+                H_new, g_new, new_cost = self.linearize(new_poses, robust)
             else:
                 new_cost, dx = math.inf, np.zeros_like(g)
                 diag = H.diagonal()
@@ -510,7 +615,7 @@ class PoseGraph:
                     damped = H + _diag_upper(lam * np.maximum(diag, 1e-12), H)
                     dx = -solver.solve(damped, g, st.key)
                     new_poses = self._apply(poses, dx)
-                    new_cost = self.cost(new_poses)
+                    new_cost = self.cost(new_poses, robust)
                     if new_cost <= cost:
                         lam = max(lam / 3.0, 1e-12)
                         break
@@ -518,7 +623,7 @@ class PoseGraph:
                 if new_cost > cost:
                     converged = True  # no step lowers the cost: a minimum to precision
                     break
-                H_new, g_new, new_cost = self.linearize(new_poses)
+                H_new, g_new, new_cost = self.linearize(new_poses, robust)
             decrease = cost - new_cost
             poses, H, g, cost = new_poses, H_new, g_new, new_cost
             history.append(cost)
@@ -530,25 +635,25 @@ class PoseGraph:
         return OptimizationResult(it, initial, cost, converged, tuple(history))
 
 
-    def _optimize_with(self, step: GaussNewtonStep, max_iterations: int, tolerance: float
-                       ) -> OptimizationResult:
+    def _optimize_with(self, step: GaussNewtonStep, max_iterations: int, tolerance: float,
+                       robust: bool = True) -> OptimizationResult:
         """:meth:`optimize` with ``step`` making each Gauss–Newton iteration."""
         i, j, z, omega = self.edges()
         if len(i) == 0:
             raise PoseGraphError("the graph has no edges to optimise")
         poses = self.poses
-        cost = initial = self.cost(poses)
+        cost = initial = self.cost(poses, robust)
         history, converged, it = [cost], False, 0
         for it in range(1, max_iterations + 1):  # noqa: B007 - it is reported
             e = edge_errors(poses, i, j, z)
-            _, w = self._robust(np.einsum("ei,eij,ej->e", e, omega, e))
+            _, w = self._robust(np.einsum("ei,eij,ej->e", e, omega, e), robust)
             edges = [(int(a), int(b), z[k].copy(), omega[k] * w[k])
                      for k, (a, b) in enumerate(zip(i, j, strict=True))]
             new = geometry.check_pose(step(poses.copy(), edges), "the step's poses")
             if new.shape != poses.shape:
                 raise ValueError(f"the step must return poses of shape {poses.shape}; got "
                                  f"{new.shape}")
-            new_cost = self.cost(new)
+            new_cost = self.cost(new, robust)
             decrease, moved = cost - new_cost, float(np.max(np.abs(new - poses)))
             poses, cost = new, new_cost
             history.append(cost)

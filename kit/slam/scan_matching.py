@@ -15,15 +15,9 @@ Two matchers, used together by the SLAM front end:
   ``s²`` the residuals' variance (never below ``σ²``): wide along a corridor, where the scan
   cannot tell positions apart and the prior takes over.
 
-* **Correlative, multi-resolution matching** (Olson, "Real-time correlative scan matching",
-  ICRA 2009; the matcher of Karto and SLAM Toolbox): the reference is rasterised into a
-  likelihood field ``L = exp(−d² / 2σ²)`` (``d`` the distance to the nearest reference point)
-  and every pose of a search window (x, y, θ) is scored by the mean of ``L`` at the moved
-  points (the *response*, 0…1). A coarse table holding, per cell, the maximum of ``L`` over the
-  ``f × f`` fine offsets it stands for bounds every fine score from above, so fine offsets are
-  only scored inside the coarse cells that could still beat the best fine score found
-  (branch and bound: the result is the exhaustive search's). The covariance comes from the
-  responses around the best pose, as Karto computes it.
+* **Correlative, multi-resolution matching** (Olson, ICRA 2009; Karto's matcher), in
+  :mod:`kit.slam.correlative` and re-exported here: every pose of a search window scored
+  against a likelihood field of the reference, the best found by branch and bound.
 
 Poses are ``T_reference_source``: the source scan's frame in the reference frame.
 """
@@ -38,6 +32,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from kit import geometry
+from kit.slam.correlative import (
+    LikelihoodField,
+    MatchResult,
+    correlative_match,
+    likelihood_field,
+)
+from kit.slam.correlative import check_points as _check_points
 
 __all__ = [
     "ODOMETRY_PRIOR",
@@ -59,32 +60,6 @@ ODOMETRY_PRIOR = np.diag([1 / 0.05**2, 1 / 0.05**2, 1 / math.radians(3.0) ** 2])
 3° standard deviation (an assumption; wheel odometry's local error on the CSAIL log is
 3 cm and 3° on average)."""
 ODOMETRY_PRIOR.flags.writeable = False
-
-
-@dataclass(frozen=True)
-class MatchResult:
-    """A matcher's answer: the pose ``T_reference_source`` and how sure it is."""
-
-    pose: FloatArray
-    covariance: FloatArray
-    """3×3 over (x [m], y [m], θ [rad])."""
-    converged: bool
-    iterations: int = 0
-    inlier_fraction: float = 0.0
-    """ICP: share of source points paired with the reference at the end."""
-    rmse: float = 0.0
-    """ICP: root mean square point-to-line residual of the kept pairs [m]."""
-    response: float = 0.0
-    """Correlative: mean likelihood of the moved points at the best pose (0…1)."""
-
-
-def _check_points(points: ArrayLike, name: str) -> FloatArray:
-    p = np.asarray(points, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (M, 2) [m]; got shape {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError(f"{name} contains NaN or infinite values")
-    return p
 
 
 # ----------------------------------------------------------------------------- ICP
@@ -319,162 +294,3 @@ def _inverse(info: FloatArray) -> FloatArray:
 
 def _fallback_covariance(omega: FloatArray | None) -> FloatArray:
     return _inverse(omega) if omega is not None else np.diag([1e6, 1e6, 1e3])
-
-
-# ----------------------------------------------------------------------------- correlative
-@dataclass(frozen=True, eq=False)
-class LikelihoodField:
-    """``values[row, col]`` = likelihood at the centre of cell (col, row); cell (0, 0)'s corner
-    is at ``origin`` (x, y) [m] in the reference frame."""
-
-    values: FloatArray
-    origin: FloatArray
-    resolution: float
-
-
-def likelihood_field(points: ArrayLike, resolution: float = 0.05, sigma: float = 0.05,
-                     margin: float = 1.0) -> LikelihoodField:
-    """Rasterise reference points into ``L = exp(−d² / 2σ²)``, ``d`` the distance from a cell
-    centre to the nearest reference point's cell, over their bounding box plus ``margin``.
-
-    >>> f = likelihood_field([[0.0, 0.0]], resolution=0.1, sigma=0.1, margin=0.3)
-    >>> f.values.shape, float(f.values.max())
-    ((7, 7), 1.0)
-    """
-    from scipy.ndimage import distance_transform_edt
-
-    p = _check_points(points, "points")
-    if len(p) == 0:
-        raise ValueError("a likelihood field needs at least one reference point")
-    if resolution <= 0 or sigma <= 0 or margin < 0:
-        raise ValueError("resolution and sigma must be positive, margin non-negative")
-    lo = p.min(axis=0) - margin
-    shape = np.floor((p.max(axis=0) + margin - lo) / resolution + 1e-9).astype(int) + 1
-    cells = np.floor((p - lo) / resolution).astype(int)
-    hit = np.ones((shape[1], shape[0]), dtype=bool)
-    hit[cells[:, 1], cells[:, 0]] = False
-    d = distance_transform_edt(hit) * resolution
-    return LikelihoodField(np.exp(-0.5 * (d / sigma) ** 2), lo, float(resolution))
-
-
-def _coarse(values: FloatArray, factor: int) -> FloatArray:
-    """``C[r, c] = max(L[r : r + f, c : c + f])``: the best any fine offset of the block
-    starting at (r, c) can score, so a coarse score bounds the fine ones from above."""
-    from scipy.ndimage import maximum_filter
-
-    if factor == 1:
-        return values
-    padded = np.pad(values, ((0, factor), (0, factor)))
-    return maximum_filter(padded, size=factor, origin=-(factor // 2), mode="constant",
-                          cval=0.0)[: values.shape[0] + 1, : values.shape[1] + 1]
-
-
-def _score(table: FloatArray, ix: NDArray[np.int64], iy: NDArray[np.int64],
-           ox: NDArray[np.int64], oy: NDArray[np.int64]) -> FloatArray:
-    """Mean of ``table`` over points at cells (ix + ox, iy + oy) for each offset, (O,);
-    points off the table score 0."""
-    h, w = table.shape
-    cx = ix[:, None] + ox[None, :]
-    cy = iy[:, None] + oy[None, :]
-    inside = (cx >= 0) & (cx < w) & (cy >= 0) & (cy < h)
-    vals = table[np.clip(cy, 0, h - 1), np.clip(cx, 0, w - 1)]
-    return np.asarray(np.where(inside, vals, 0.0).mean(axis=0), dtype=np.float64)
-
-
-@dataclass(frozen=True)
-class _Window:
-    half_x: int
-    half_y: int
-    angles: FloatArray
-    factor: int
-
-
-def correlative_match(source: ArrayLike, reference: LikelihoodField, initial: ArrayLike,
-                      linear_window: float = 0.5, angular_window: float = 0.35,
-                      angular_step: float | None = None, coarse_factor: int = 4
-                      ) -> MatchResult:
-    """The pose within ``initial ± (linear_window, linear_window, angular_window)`` [m, m,
-    rad] where the source points best fit the likelihood field, to one cell and one angular
-    step, with Karto's covariance of the responses around it.
-
-    ``angular_step`` defaults to the angle that moves the farthest source point by one cell.
-    """
-    src = _check_points(source, "source")
-    x0 = geometry.check_pose(initial, "initial")
-    if len(src) == 0:
-        raise ValueError("correlative_match needs source points")
-    res = reference.resolution
-    reach = max(float(np.hypot(src[:, 0], src[:, 1]).max()), res)
-    step = angular_step if angular_step is not None else min(res / reach, 0.05)
-    n_ang = math.floor(angular_window / step)
-    angles = x0[2] + step * np.arange(-n_ang, n_ang + 1)
-    f = max(1, int(coarse_factor))
-    half = math.ceil(linear_window / res / f) * f
-    win = _Window(half, half, angles, f)
-    coarse = _coarse(reference.values, f)
-    best = _search(src, reference, coarse, x0, win)
-    pose = np.array([x0[0] + best[1] * res, x0[1] + best[2] * res, angles[best[0]]])
-    cov = _response_covariance(src, reference, x0, angles, best)
-    return MatchResult(pose, cov, True, response=best[3])
-
-
-def _cells(src: FloatArray, ref: LikelihoodField, x0: FloatArray, angle: float
-           ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    q = geometry.transform_points([x0[0], x0[1], angle], src)
-    ix = np.floor((q[:, 0] - ref.origin[0]) / ref.resolution).astype(np.int64)
-    iy = np.floor((q[:, 1] - ref.origin[1]) / ref.resolution).astype(np.int64)
-    return ix, iy
-
-
-def _search(src: FloatArray, ref: LikelihoodField, coarse: FloatArray, x0: FloatArray,
-            win: _Window) -> tuple[int, int, int, float]:
-    """Branch and bound over (angle, coarse block), then the fine offsets of the blocks
-    that can still win; returns the best (angle index, dx, dy [cells], response)."""
-    f = win.factor
-    bx = np.arange(-win.half_x, win.half_x + 1, f)
-    by = np.arange(-win.half_y, win.half_y + 1, f)
-    gx, gy = (g.ravel() for g in np.meshgrid(bx, by))
-    cells = [_cells(src, ref, x0, float(a)) for a in win.angles]
-    candidates: list[tuple[float, int, int, int]] = []
-    for k, (ix, iy) in enumerate(cells):
-        s = _score(coarse, ix, iy, gx, gy)
-        candidates.extend(zip(s.tolist(), [k] * len(s), gx.tolist(), gy.tolist(), strict=True))
-    candidates.sort(key=lambda c: -c[0])
-    fx, fy = (g.ravel() for g in np.meshgrid(np.arange(f), np.arange(f)))
-    best = (len(win.angles) // 2, 0, 0, -1.0)
-    for bound, k, ox, oy in candidates:
-        if bound <= best[3]:
-            break
-        ix, iy = cells[k]
-        s = _score(ref.values, ix, iy, ox + fx, oy + fy)
-        j = int(np.argmax(s))
-        if s[j] > best[3]:
-            best = (k, int(ox + fx[j]), int(oy + fy[j]), float(s[j]))
-    return best
-
-
-def _response_covariance(src: FloatArray, ref: LikelihoodField, x0: FloatArray,
-                         angles: FloatArray, best: tuple[int, int, int, float],
-                         reach: int = 3) -> FloatArray:
-    """Karto's estimate: the response-weighted spread of the poses within ``reach`` cells and
-    angular steps of the best whose response is within 10 % of it, floored at a quarter cell
-    and a quarter step."""
-    res = ref.resolution
-    step = float(angles[1] - angles[0]) if len(angles) > 1 else 0.01
-    off = np.arange(-reach, reach + 1)
-    ox, oy = (g.ravel() for g in np.meshgrid(off + best[1], off + best[2]))
-    rows = []
-    for k in range(max(0, best[0] - reach), min(len(angles), best[0] + reach + 1)):
-        ix, iy = _cells(src, ref, x0, float(angles[k]))
-        s = _score(ref.values, ix, iy, ox, oy)
-        rows.append(np.column_stack([(ox - best[1]) * res, (oy - best[2]) * res,
-                                     np.full(len(s), (k - best[0]) * step), s]))
-    table = np.vstack(rows)
-    response = best[3]
-    near = table[:, 3] >= response - 0.1 * max(response, 1e-9)
-    w = table[near, 3] / table[near, 3].sum()
-    d = table[near, :3]
-    mean = w @ d
-    cov = (d * w[:, None]).T @ d - np.outer(mean, mean)
-    floor = np.diag([(0.25 * res) ** 2, (0.25 * res) ** 2, (0.25 * step) ** 2])
-    return np.asarray(0.5 * (cov + cov.T) + floor, dtype=np.float64)

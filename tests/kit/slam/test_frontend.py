@@ -17,9 +17,13 @@ ROOM = np.array([[0, 0], [12, 0], [12, 6], [7, 6], [7, 3.5], [5, 3.5], [5, 6], [
 
 def cast(pose, beams=361, fov=np.pi):
     """Exact ranges from ``pose`` to the polygon ROOM's walls, a front half-circle."""
-    angles = pose[2] + np.linspace(-fov / 2, fov / 2, beams)
+    return cast_at(pose, pose[2] + np.linspace(-fov / 2, fov / 2, beams))
+
+
+def cast_at(pose, angles):
+    """Exact ranges from ``pose`` to ROOM's walls along the beams at ``angles`` (map)."""
     d = np.column_stack([np.cos(angles), np.sin(angles)])
-    best = np.full(beams, np.inf)
+    best = np.full(len(angles), np.inf)
     for a, b in zip(ROOM, np.roll(ROOM, -1, axis=0), strict=True):
         e = b - a
         denom = d[:, 0] * e[1] - d[:, 1] * e[0]
@@ -94,6 +98,16 @@ def test_kit_slam_writes_map_trajectory_graph_and_errors(tmp_path, capsys):
     assert (grid.data == 100).sum() > 100
     errors = list(csv.DictReader((out / "errors.csv").open()))
     assert max(float(e["translational_m"]) for e in errors) < 0.05
+    closures = list(csv.DictReader((out / "closures.csv").open()))
+    assert closures and set(closures[0]) >= {"node", "node_stamp", "candidate", "accepted",
+                                             "reason", "response", "support", "chi2"}
+    accepted = [c for c in closures if c["accepted"] == "1"]
+    assert accepted and all(c["reason"] == "" and float(c["chi2"]) >= 0 for c in accepted)
+    assert all(c["reason"] for c in closures if c["accepted"] == "0")
+    assert f"{len(accepted)} loop closures of {len(closures)} candidates" in printed
+    scans = list(csv.DictReader((out / "scans.csv").open()))
+    assert len(scans) == 120 and scans[0]["matched"] == "first"
+    assert {s["matched"] for s in scans[1:]} <= {"icp", "search", "odometry"}
 
 
 def test_kit_slam_reports_bad_input(tmp_path, capsys):
@@ -102,6 +116,85 @@ def test_kit_slam_reports_bad_input(tmp_path, capsys):
     (tmp_path / "x.log").write_text("PARAM a b\n")
     assert kit_main(["slam", str(tmp_path / "x.log"), "--out", str(tmp_path)]) == 2
     assert "no FLASER or ROBOTLASER1" in capsys.readouterr().err
+    (tmp_path / "bag").mkdir()
+    assert kit_main(["slam", str(tmp_path / "bag"), "--odometry-noise", "3", "--out",
+                     str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "--odometry-noise applies to CARMEN logs" in err and "Traceback" not in err
+
+
+def test_perturbed_odometry_follows_its_error_model_and_bad_shapes_are_refused(tmp_path):
+    """Without noise the perturbed steps are the true ones stretched by the distance and
+    turning errors plus the drift per metre; the seed makes the noise repeatable."""
+    from kit.slam import evaluate
+
+    truth = route(120)
+    quiet = evaluate.perturb_odometry(truth, 1, noise_xy=(0, 0), noise_theta=(0, 0, 0))
+    step, bent = geometry.relative(truth[:-1], truth[1:]), geometry.relative(quiet[:-1],
+                                                                            quiet[1:])
+    d = np.hypot(step[:, 0], step[:, 1])
+    assert np.allclose(bent[:, :2], 1.02 * step[:, :2])
+    assert np.allclose(bent[:, 2], 1.01 * step[:, 2] + 0.01 * d)
+    assert np.array_equal(evaluate.perturb_odometry(truth, 5), evaluate.perturb_odometry(truth, 5))
+    assert not np.allclose(evaluate.perturb_odometry(truth, 5), evaluate.perturb_odometry(truth, 6))
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        evaluate.perturb_odometry(np.zeros(3), 0)
+    write_log(tmp_path / "room.log", truth, np.random.default_rng(0))
+    log = carmen.read_carmen(tmp_path / "room.log")
+    with pytest.raises(ValueError, match="one pose per laser message"):
+        offline.run_carmen(log, odometry=truth[:-1])
+
+
+def cast_with_person(pose, person, radius=0.25, beams=720):
+    """A 360° scan of ROOM with a round person standing in it."""
+    angles = pose[2] + np.linspace(-np.pi, np.pi, beams, endpoint=False)
+    ranges = cast_at(pose, angles)
+    d = np.column_stack([np.cos(angles), np.sin(angles)])
+    f = np.asarray(pose[:2]) - person
+    b = d @ f
+    disc = b**2 - (f @ f - radius**2)
+    hit = (disc >= 0) & (-b - np.sqrt(np.maximum(disc, 0)) > 0)
+    t = -b - np.sqrt(np.maximum(disc, 0))
+    return np.where(hit & (t < ranges), t, ranges), angles - pose[2]
+
+
+def test_a_person_walking_behind_the_robot_is_dropped_from_matching_and_the_map():
+    """A 360° scanner driven out along the room and back with a person 1 m behind it the
+    whole way: the returns on the person land where the scans have seen free space and are
+    dropped as moving (the walls' returns are not), the trajectory stays on the truth, and
+    the map shows no trail of the person."""
+    from kit import msgs
+    from kit.slam import frontend
+
+    truth = route(160)
+    slam = frontend.Slam()
+    rng = np.random.default_rng(4)
+    odo, people, fronts = truth[0].copy(), [], []
+    for k, pose in enumerate(truth):
+        if k:
+            odo = geometry.compose(odo, geometry.relative(truth[k - 1], pose) *
+                                   np.array([1.03, 1.03, 1.0]))
+        heading = np.array([np.cos(pose[2]), np.sin(pose[2])])
+        people.append(pose[:2] - 1.0 * heading if k > 10 else np.array([100.0, 100.0]))
+        fronts.append(people[-1] + 0.25 * heading)    # the side the scanner sees
+        ranges, angles = cast_with_person(pose, people[-1])
+        scan = msgs.LaserScan(angle_min=float(angles[0]),
+                              angle_increment=float(angles[1] - angles[0]), range_max=30.0,
+                              ranges=ranges + rng.normal(0, 0.005, len(ranges)))
+        slam.add_scan(scan, odo, 0.2 * k)
+    slam.optimize()
+    _, poses = slam.trajectory()
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.05
+    assert sum(r.moving for r in slam.records) > 5 * 150
+    on_person = on_wall = 0
+    for node in slam.nodes:
+        ends, _, _ = node.beams
+        dropped = geometry.transform_points(truth[node.scan_index], ends[node.moving])
+        near = np.hypot(*(dropped - people[node.scan_index]).T) < 0.3
+        on_person, on_wall = on_person + near.sum(), on_wall + (~near).sum()
+    assert on_person > 20 * on_wall
+    grid = slam.occupancy_map(0.05)
+    assert not any(grid.probability_at(p) > 0.65 for p in fronts[20:])
 
 
 def test_front_end_rejects_bad_settings_and_odometry():

@@ -370,3 +370,86 @@ def test_gtsam_native_optimum_agrees_where_the_edges_are_met_closely(shared_data
     native = _gtsam_native_optimum(path)
     assert abs(pg.chi2(native, *ours.edges()) - ours.chi2()) <= 3e-6 * ours.chi2()
     assert np.abs(ours.poses[:, :2] - native[:, :2]).max() < 2e-3
+
+
+# ----------------------------------------------------------------------------- for SLAM's back end
+def loop_with_closures(rng, n=12):
+    """Poses around a loop, edges that all agree with them (consecutive and three chords),
+    each with a random positive-definite information matrix."""
+    truth = np.zeros((n, 3))
+    for k in range(1, n):
+        truth[k] = geometry.compose(truth[k - 1], [1.0, 0.0, 2 * np.pi / n])
+    pairs = [(k, k + 1) for k in range(n - 1)] + [(0, n - 1), (2, 8), (4, 10)]
+    g = pg.PoseGraph()
+    for pose in truth:
+        g.add_node(pose)
+    for i, j in pairs:
+        a = rng.normal(size=(3, 3))
+        g.add_edge(i, j, geometry.relative(truth[i], truth[j]), a @ a.T + np.diag([50, 50, 200]))
+    return g, truth
+
+
+def test_each_edges_chi2_sums_to_the_graphs_and_removing_edges_keeps_the_others():
+    g, _ = chain_graph(np.random.default_rng(7))
+    per_edge = g.edge_chi2()
+    assert per_edge.shape == (g.num_edges,) and np.all(per_edge >= 0)
+    assert per_edge.sum() == pytest.approx(g.chi2(), rel=1e-12)
+    i, j, z, omega = g.edges()
+    twin = g.copy()
+    twin.remove_edges([4, 9])   # the loop closure keeps every node connected
+    i2, j2, z2, omega2 = twin.edges()
+    keep = np.setdiff1d(np.arange(len(i)), [4, 9])
+    assert np.array_equal(i2, i[keep]) and np.array_equal(j2, j[keep])
+    assert np.array_equal(z2, z[keep]) and np.array_equal(omega2, omega[keep])
+    assert g.num_edges == len(i)           # the copy is independent
+    twin.optimize()
+    assert not np.allclose(twin.poses, g.poses)
+    with pytest.raises(pg.PoseGraphError, match="edge indices"):
+        g.remove_edges([g.num_edges])
+
+
+def test_relative_marginal_equals_gtsams_joint_marginal_of_the_two_poses():
+    """The covariance of node j seen from node i, from the graph's normal equations, is
+    gtsam's (``Marginals.jointMarginalCovariance`` carried through ``between``'s Jacobians,
+    ``−Ad(z⁻¹)`` and ``I``) where every edge is met exactly."""
+    gtsam = pytest.importorskip("gtsam")
+    g, truth = loop_with_closures(np.random.default_rng(8))
+    graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+    for k, pose in enumerate(truth):
+        values.insert(k, gtsam.Pose2(*pose))
+    graph.add(gtsam.PriorFactorPose2(0, gtsam.Pose2(*truth[0]),
+                                     gtsam.noiseModel.Isotropic.Sigma(3, 1e-9)))
+    for i, j, z, omega in zip(*g.edges(), strict=True):
+        graph.add(gtsam.BetweenFactorPose2(int(i), int(j), gtsam.Pose2(*z),
+                                           gtsam.noiseModel.Gaussian.Information(omega)))
+    marginals = gtsam.Marginals(graph, values)
+    for i, j in [(1, 7), (3, 4), (0, 9), (10, 2)]:
+        joint = marginals.jointMarginalCovariance(gtsam.KeyVector([i, j])).fullMatrix()
+        z = values.atPose2(i).between(values.atPose2(j))
+        J = np.hstack([-z.inverse().AdjointMap(), np.eye(3)])
+        expected = J @ joint @ J.T
+        estimate, covariance = g.relative_marginal(i, j)
+        assert np.allclose(estimate, geometry.relative(truth[i], truth[j]), atol=1e-12)
+        assert np.allclose(covariance, expected, rtol=1e-6, atol=1e-12)
+    with pytest.raises(pg.PoseGraphError, match="two different nodes"):
+        g.relative_marginal(3, 3)
+
+
+def test_optimising_with_the_kernels_off_is_plain_least_squares():
+    """``robust=False`` solves the graph as if no edge had a kernel: the same optimum as the
+    same edges added without one, and a false closure under a Cauchy kernel pulls the map
+    as far as an ordinary edge does."""
+    rng = np.random.default_rng(9)
+    robust, _ = chain_graph(rng, loop=False)
+    plain = robust.copy()
+    n = robust.num_nodes
+    bad = np.array([1.0, -0.5, 0.3])     # a false closure from the last node to the fifth
+    robust.add_edge(n - 1, 5, bad, np.diag([100.0] * 3), kernel="cauchy", delta=1.0)
+    plain.add_edge(n - 1, 5, bad, np.diag([100.0] * 3))
+    off = robust.copy()
+    off.optimize(robust=False)
+    plain.optimize()
+    robust.optimize()
+    assert np.allclose(off.poses, plain.poses, atol=1e-9)
+    assert off.cost(robust=False) == pytest.approx(plain.cost(), rel=1e-9)
+    assert robust.edge_chi2()[-1] > 10 * plain.edge_chi2()[-1]   # the kernel let it go

@@ -182,3 +182,62 @@ def test_icp_beats_odometry_on_the_csail_local_relations(shared_data):
             geometry.compose(geometry.inverse(guess), rel.delta[k])[2]))))
     assert np.mean(trans) <= 0.03
     assert np.degrees(np.mean(rot)) <= 0.5 < np.degrees(np.mean(odo_rot))
+
+
+def test_compiled_likelihood_field_equals_the_distance_transform_within_four_sigma():
+    """The smeared field (numba) is the exact distance transform's wherever the nearest
+    reference cell lies within 4σ, and at most e⁻⁸ below it elsewhere."""
+    from kit.slam import correlative
+
+    rng = np.random.default_rng(5)
+    points = np.vstack([walls(ROOM, 0.03), rng.uniform(0, 6, (40, 2))])
+    exact = correlative.likelihood_field(points, 0.02, 0.03, margin=0.3, method="numpy")
+    fast = correlative.likelihood_field(points, 0.02, 0.03, margin=0.3, method="numba")
+    assert fast.values.shape == exact.values.shape
+    assert np.allclose(fast.origin, exact.origin)
+    assert np.abs(fast.values - exact.values).max() <= np.exp(-8.0) + 1e-12
+    with pytest.raises(ValueError, match="'numba' or 'numpy'"):
+        correlative.likelihood_field(points, method="edt")
+
+
+@pytest.mark.parametrize("penalty", [0.0, 0.3])
+def test_compiled_branch_and_bound_equals_the_exhaustive_numpy_search(penalty):
+    """Branch and bound (compiled) returns the exhaustive search's pose and response, with
+    and without the penalty toward the guess, also when the window reaches past the field's
+    edge (the coarse bound must hold for blocks that only partly overlap it)."""
+    from kit.slam import correlative
+
+    rng = np.random.default_rng(6)
+    reference = walls(ROOM, 0.05)
+    field = correlative.likelihood_field(reference, 0.05, 0.05, margin=0.1)
+    for trial in range(4):
+        truth = np.array([rng.uniform(1, 5), rng.uniform(0.5, 3.5), rng.uniform(-3, 3)])
+        source = seen_from(reference, truth, rng, noise=0.01)
+        initial = truth + np.array([*rng.uniform(-0.25, 0.25, 2), rng.uniform(-0.1, 0.1)])
+        kw = dict(linear_window=0.4, angular_window=0.12, angular_step=0.02,
+                  coarse_factor=3 + trial % 2, penalty=penalty)
+        fast = correlative.correlative_match(source, field, initial, method="numba", **kw)
+        slow = correlative.correlative_match(source, field, initial, method="numpy", **kw)
+        assert np.allclose(fast.pose, slow.pose)
+        assert fast.response == pytest.approx(slow.response, abs=1e-12)
+        assert np.allclose(fast.covariance, slow.covariance)
+
+
+def test_a_penalty_picks_the_pose_nearest_the_guess_where_a_corridor_cannot_tell():
+    """Along a featureless corridor every shift scores alike; Karto's penalty makes the
+    search keep the guess's position along it (and the walls still fix the rest)."""
+    from kit.slam import correlative
+
+    corridor = np.vstack([np.column_stack([np.arange(0, 30, 0.02), np.zeros(1500)]),
+                          np.column_stack([np.arange(0, 30, 0.02), np.full(1500, 1.5)])])
+    truth = np.array([10.0, 0.7, 0.0])
+    source = seen_from(corridor, truth, max_range=4.0)
+    field = correlative.likelihood_field(corridor, 0.05, 0.05)
+    guess = truth + np.array([0.2, 0.1, 0.02])
+    result = correlative.correlative_match(source, field, guess, 0.4, 0.05, 0.01,
+                                           penalty=0.2)
+    assert result.pose[0] == pytest.approx(guess[0], abs=1e-9)
+    assert result.pose[1] == pytest.approx(truth[1], abs=0.05)
+    assert result.pose[2] == pytest.approx(truth[2], abs=0.011)
+    with pytest.raises(ValueError, match="penalty"):
+        correlative.correlative_match(source, field, guess, penalty=1.0)

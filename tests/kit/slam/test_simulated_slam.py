@@ -95,19 +95,47 @@ def test_office_map_trajectory_and_glass_room(tmp_path):
     assert len(glass) < 10  # no wall where the glass is
 
 
-@pytest.mark.xfail(strict=True, reason="known weakness of kit slam: in seed 8 a person walks "
-                   "along the office corridor about 1 m behind the robot, at its speed, for "
-                   "several seconds; the corridor gives no hold along its length, the scans "
-                   "match the person, and the estimate falls behind (0.6 m, kept to the end). "
-                   "kit slam keeps every return; the navigation stack's SLAM drops those in "
-                   "space already seen free")
 def test_office_slam_is_not_dragged_by_a_person_walking_with_the_robot(tmp_path):
+    """Seed 8: a person walks along the office corridor about 1 m behind the robot, at its
+    speed, for several seconds; the corridor gives no hold along its length. The person's
+    returns land where the scans have seen free space and are dropped: the estimate stays
+    on the truth (it fell 0.6 m behind when they drove the matches; 0.28 m at worst with
+    the gates of this version but no dropping)."""
     from sim.demo import ROUTE
 
     _, truth = drive("office", ROUTE, tmp_path / "bag", 240.0, seed=8, people=2)
     assert kit_main(["slam", str(tmp_path / "bag"), "--out", str(tmp_path / "out"),
                      "--quiet"]) == 0
-    assert trajectory_error(tmp_path / "out", truth).mean() <= 0.05
+    error = trajectory_error(tmp_path / "out", truth)
+    assert error.mean() <= 0.05
+    assert error.max() <= 0.15
+    scans = list(csv.DictReader((tmp_path / "out" / "scans.csv").open()))
+    assert sum(int(s["moving"]) for s in scans) > 1000
+
+
+def test_the_returns_dropped_as_moving_are_people_not_walls(tmp_path):
+    """Against the simulator's own walls: of the returns SLAM dropped as moving (at its
+    nodes, placed by the true poses), at least 95 % lie farther than 0.1 m from every wall
+    and glass pane — they were people."""
+    from kit import geometry
+    from kit.slam import offline
+    from sim.demo import ROUTE
+
+    sim, truth = drive("office", ROUTE, tmp_path / "bag", 240.0, seed=3, people=2)
+    slam = offline.run_bag(offline.read_bag_recording(tmp_path / "bag"))
+    stamps = np.array([r.stamp for r in slam.records])
+    t = 0.02 * np.arange(len(truth))
+    distances = []
+    for node in slam.nodes:
+        stamp = stamps[node.scan_index]
+        pose = [np.interp(stamp, t, truth[:, 0]), np.interp(stamp, t, truth[:, 1]),
+                np.interp(stamp, t, np.unwrap(truth[:, 2]))]
+        ends, _, _ = node.beams
+        points = geometry.transform_points(pose, ends[node.moving])
+        distances.append(wall_distance(points, sim.world.lidar_segments))
+    d = np.concatenate(distances)
+    assert len(d) > 500
+    assert np.mean(d > 0.1) >= 0.95
 
 
 def test_aisle_map_and_trajectory(tmp_path):
