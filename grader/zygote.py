@@ -52,7 +52,7 @@ __all__ = ["main"]
 PR_SET_PDEATHSIG = 1
 CLONE_NEWNS, CLONE_NEWUTS, CLONE_NEWIPC = 0x00020000, 0x04000000, 0x08000000
 CLONE_NEWPID, CLONE_NEWNET = 0x20000000, 0x40000000
-MS_NOSUID, MS_NODEV, MS_NOEXEC, MS_REC, MS_PRIVATE = 2, 4, 8, 1 << 14, 1 << 18
+MS_NOSUID, MS_NODEV, MS_NOEXEC, MS_BIND, MS_REC, MS_PRIVATE = 2, 4, 8, 4096, 1 << 14, 1 << 18
 
 _libc = ctypes.CDLL(None, use_errno=True)
 _libc.mount.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p, ctypes.c_ulong,
@@ -141,7 +141,12 @@ def _isolate(config: dict[str, Any], request: dict[str, Any]) -> None:
     _mount(None, "/", None, MS_REC | MS_PRIVATE)
     size = f"size={int(request['scratch_mb']) * 1024 * 1024}"
     for folder in ("/tmp", "/dev/shm", config["home"]):
+        kept = _mounts_below(folder)  # a kit cloned under /tmp: its bound folders stay
+        handles = [os.open(point, os.O_PATH) for point in kept]
         _mount("tmpfs", folder, "tmpfs", MS_NOSUID | MS_NODEV, f"{size},mode=1777")
+        for point, handle in zip(kept, handles, strict=True):
+            _bind_again(handle, point)
+            os.close(handle)
     _mount("proc", "/proc", "proc", MS_NOSUID | MS_NODEV | MS_NOEXEC)
     uid = int(request["uid"])
     for folder, files in CACHES.items():
@@ -154,6 +159,45 @@ def _isolate(config: dict[str, Any], request: dict[str, Any]) -> None:
     os.setgroups([])
     os.setresgid(uid, uid, uid)
     os.setresuid(uid, uid, uid)  # from root to a user of its own: every capability goes
+
+
+def _mounts_below(folder: str) -> list[str]:
+    """The mount points right below the mount on ``folder`` that can be seen
+    (``/proc/self/mountinfo``): the sandbox's read-only binds of the kit, its packages and its
+    virtual environment when they live under ``/tmp`` (a checkout in a temporary folder),
+    which the submission's own tmpfs over ``/tmp`` would otherwise hide. Mounts already hidden
+    by a later one on the same or a higher point are left out."""
+    entries = []
+    with open("/proc/self/mountinfo", encoding="utf-8", errors="surrogateescape") as fh:
+        for line in fh:
+            fields = line.split()
+            point = fields[4]
+            for code in ("\\040", "\\011", "\\012", "\\134"):
+                point = point.replace(code, chr(int(code[1:], 8)))
+            entries.append((int(fields[0]), int(fields[1]), point))
+    on_folder = [mount for mount, _, point in entries if point == folder]
+    below = folder.rstrip("/") + "/"
+    if on_folder:
+        top = {point: mount for mount, parent, point in entries
+               if parent == on_folder[-1] and point.startswith(below)}
+    else:
+        inside = {mount for mount, _, point in entries if point.startswith(below)}
+        top = {point: mount for mount, parent, point in entries
+               if point.startswith(below) and parent not in inside}
+    return sorted(top)
+
+
+def _bind_again(handle: int, point: str) -> None:
+    """Mounts what ``handle`` (an ``O_PATH`` descriptor opened before the tmpfs hid it) holds
+    at ``point`` again, with everything mounted below it; a bind keeps its mount's flags, so a
+    read-only bind stays read-only."""
+    parent = os.path.dirname(point)
+    os.makedirs(parent, mode=0o755, exist_ok=True)
+    if os.path.isdir(f"/proc/self/fd/{handle}"):
+        os.makedirs(point, mode=0o755, exist_ok=True)
+    else:
+        os.close(os.open(point, os.O_CREAT | os.O_WRONLY, 0o444))
+    _mount(f"/proc/self/fd/{handle}", point, None, MS_BIND | MS_REC)
 
 
 def _limit(request: dict[str, Any], isolating: bool) -> None:
