@@ -108,17 +108,33 @@ def preload_modules(spec: LabSpec) -> list[str]:
     """What the grading server imports before forking: the scientific stack and every module
     of the kit, the simulator and the robot descriptions (each submission then starts with
     them in memory instead of importing them again)."""
-    import pkgutil
+    import importlib.util
 
     names = list(BASE_PRELOAD)
     for package in ("kit", "sim", "hardware"):
-        try:
-            module = __import__(package)
-        except ImportError:
+        found = importlib.util.find_spec(package)
+        if found is None or not found.submodule_search_locations:
             continue
-        names += [info.name for info in pkgutil.walk_packages(module.__path__, package + ".")
-                  if not info.name.rsplit(".", 1)[-1].startswith("test")
-                  and ".__main__" not in info.name and not info.name.endswith(".cli")]
+        names += [name for name in _submodules(list(found.submodule_search_locations),
+                                               package + ".")
+                  if not name.rsplit(".", 1)[-1].startswith("test")
+                  and ".__main__" not in name and not name.endswith(".cli")]
+    return names
+
+
+def _submodules(paths: list[str], prefix: str) -> list[str]:
+    """Every module and package below ``paths``, found on disk (``pkgutil.walk_packages``
+    imports each package to look inside it: a second of the grader's time at start-up for
+    modules the server imports anyway)."""
+    import pkgutil
+
+    names = []
+    for info in pkgutil.iter_modules(paths, prefix):
+        names.append(info.name)
+        if info.ispkg:
+            folder = os.path.join(getattr(info.module_finder, "path", ""),
+                                  info.name.rsplit(".", 1)[-1])
+            names += _submodules([folder], info.name + ".")
     return names
 
 
