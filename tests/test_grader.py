@@ -619,4 +619,5 @@ def test_closed_loop_grading_says_why_each_episode_failed(tmp_path, solved):
     assert graded[-1].cell_errors == [] and graded[-1].status == "ok"
     again = grade_submissions([paths[2]], spec, jobs=1, timeout=60)[0]
     assert again.exercises["lab11.make_controller"].cases == \
-        graded[2].exercises["lab11.make_controller"].cases
+        graded[2].exercises["lab11.make_controller"].cases, (
+            again.status, again.reason, again.exercises["lab11.make_controller"].reason)
