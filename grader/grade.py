@@ -112,6 +112,7 @@ class Conversation:
     session: Session | None = None
     hidden: bool = False
     restarts: int = 0
+    described: bool = False
     stdout_bytes: int = 0
     stderr_bytes: int = 0
 
@@ -127,7 +128,6 @@ class Conversation:
         while self.session is None:
             if self.restarts > RESTARTS:
                 return None
-            first = self.restarts == 0
             self.restarts += 1
             session = self.server.session(self.memory_mb, self.cpu_seconds)
             runnable = [c for c in self.cells if c.get("mode") != "skip"]
@@ -140,7 +140,10 @@ class Conversation:
             except SessionLost as lost:
                 self._lost_in_cells(session, lost)
                 continue
-            if first:
+            if not self.described:  # the first run whose cells all ran, the lost cell
+                # left out: a cell that killed the process does not hide the functions the
+                # other cells define
+                self.described = True
                 self.cell_errors += _clean_errors(header.get("errors"))
                 functions = header2.get("functions")
                 self.functions = functions if isinstance(functions, dict) else {}

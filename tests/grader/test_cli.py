@@ -115,3 +115,21 @@ def test_feedback_prints_the_number_of_files_it_wrote(folder, capsys):
     assert cli.main(["feedback", str(folder / "gb.json"), "--out", str(folder / "fb")]) == 0
     assert capsys.readouterr().out.strip() == f"wrote 2 feedback files to {folder / 'fb'}"
     assert sorted(p.name for p in (folder / "fb").iterdir()) == ["ann.md", "ben.md"]
+
+
+def test_a_cell_that_ends_the_process_is_left_out_and_the_rest_still_graded(tmp_path, capsys,
+                                                                            monkeypatch):
+    """The notebook's cells run again without the cell that ended the process, and the
+    functions the other cells define are graded (they were all 'missing' before: only the
+    first run's functions counted)."""
+    monkeypatch.delenv("KIT_COURSE_SECRET", raising=False)
+    notebook(tmp_path / "class" / "cat.ipynb", GOOD, "import os\nos._exit(3)")
+    notebook(tmp_path / "class" / "dan.ipynb", GOOD)
+    assert cli.main(grade_args(tmp_path, "--practice")) == 0
+    with open(tmp_path / "gb.csv", newline="", encoding="utf-8") as fh:
+        rows = {row["student"]: row for row in csv.DictReader(fh)}
+    honest = rows["dan"]["lab01.turning_radius"]
+    assert float(honest) > 0
+    assert rows["cat"]["lab01.turning_radius"] == honest
+    feedback = (tmp_path / "gb.json").read_text(encoding="utf-8")
+    assert "ran the notebook again without this cell" in feedback
