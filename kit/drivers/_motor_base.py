@@ -141,6 +141,20 @@ class MotorBase:
     def update(self) -> msgs.Odometry:
         raise NotImplementedError
 
+    def _wheel_command(self, cmd: msgs.Twist | tuple[float, float]) -> tuple[float, float]:
+        """The two wheels' command for a twist, in the motor controllers' units."""
+        raise NotImplementedError
+
+    def drive(self, cmd: msgs.Twist | tuple[float, float]) -> None:
+        """Command a twist (m/s, rad/s); held until the next command (see
+        :mod:`kit.drivers.bases`)."""
+        command = self._wheel_command(cmd)
+        with self.link.lock:
+            self._require_ready("drive")
+            self._send(*command)
+            self.held = command
+            self._commanded_at = time.monotonic()
+
     def halt(self) -> None:
         """Zero speed; the motors stay under control, ready for the next command."""
         with self.link.lock:

@@ -216,14 +216,8 @@ class UiabotBase(MotorBase):
         self.odrive.feed(0)
         self.odrive.feed(1)
 
-    def drive(self, cmd: msgs.Twist | tuple[float, float]) -> None:
-        """Command a twist (m/s, rad/s); held until the next command (see the module)."""
-        speeds = self.motor_speeds(cmd)
-        with self.link.lock:
-            self._require_ready("drive")
-            self._send(*speeds)
-            self.held = speeds
-            self._commanded_at = time.monotonic()
+    def _wheel_command(self, cmd: msgs.Twist | tuple[float, float]) -> tuple[float, float]:
+        return self.motor_speeds(cmd)
 
     def encoder_ticks(self) -> tuple[int, int]:
         """(right, left) wheel encoder counts, signs undone, as 32-bit counters."""
@@ -361,14 +355,8 @@ class IgvBase(MotorBase):
     def _feed(self) -> None:
         self._send(*self.held)  # the held command again: a frame each drive answers
 
-    def drive(self, cmd: msgs.Twist | tuple[float, float]) -> None:
-        """Command a twist (m/s, rad/s); held until the next command (see the module)."""
-        rpm = self.wheel_rpm(cmd)
-        with self.link.lock:
-            self._require_ready("drive")
-            self._send(*rpm)
-            self.held = rpm
-            self._commanded_at = time.monotonic()
+    def _wheel_command(self, cmd: msgs.Twist | tuple[float, float]) -> tuple[float, float]:
+        return self.wheel_rpm(cmd)
 
     def update(self) -> msgs.Odometry:
         return self.read_wheels()[1]
