@@ -372,18 +372,26 @@ def _read_goal_checker(s: Section, nav: NavigatorParameters) -> dict[str, Any]:
     return out
 
 
+def _tree_plugin(s: Section, key: str, default: str, verb: str) -> str:
+    """The plugin of ``key`` (``controller_plugins``, ``planner_plugins``) that Nav2's default
+    behaviour tree uses: ``default`` when listed, else the first (said in a note); the others
+    are reported as not used."""
+    ids = s.get_list(key, [default]) or [default]
+    chosen = default if default in ids else ids[0]
+    if chosen != default:
+        s.report.note(f"{s.node}: no {default} among {key} (the default tree {verb} "
+                      f"{default}): the kit uses {chosen}")
+    for other in ids:
+        if other != chosen:
+            s.sub(other).ignore_all(f"not used: the default tree {verb} {chosen}")
+    return chosen
+
+
 def _read_follow_path(s: Section, base: NavigationConfig, robot: RobotDescription,
                       requested: str | None, local_extent: float, frequency: float
                       ) -> tuple[str, RppParameters, DwbParameters]:
     """The controller: the default tree calls FollowPath."""
-    ids = s.get_list("controller_plugins", ["FollowPath"]) or ["FollowPath"]
-    chosen = "FollowPath" if "FollowPath" in ids else ids[0]
-    if chosen != "FollowPath":
-        s.report.note(f"{s.node}: no FollowPath among controller_plugins (the default tree "
-                      f"calls FollowPath): the kit uses {chosen}")
-    for other in ids:
-        if other != chosen:
-            s.sub(other).ignore_all(f"not used: the default tree calls {chosen}")
+    chosen = _tree_plugin(s, "controller_plugins", "FollowPath", "calls")
     fp = s.sub(chosen)
     plugin = fp.get("plugin", "dwb_core::DWBLocalPlanner")
     controller_kind = _CONTROLLER_TYPES.get(_type_name(plugin))
@@ -417,14 +425,7 @@ NAVFN_COST_TRAVEL = 0.016 * 252
 
 
 def _read_planner(s: Section, base: PlannerParameters) -> PlannerParameters:
-    ids = s.get_list("planner_plugins", ["GridBased"]) or ["GridBased"]
-    chosen = "GridBased" if "GridBased" in ids else ids[0]
-    if chosen != "GridBased":
-        s.report.note(f"{s.node}: no GridBased among planner_plugins (the default tree "
-                      f"plans with GridBased): the kit uses {chosen}")
-    for other in ids:
-        if other != chosen:
-            s.sub(other).ignore_all(f"not used: the default tree plans with {chosen}")
+    chosen = _tree_plugin(s, "planner_plugins", "GridBased", "plans with")
     g = s.sub(chosen)
     plugin = g.get("plugin", "nav2_navfn_planner/NavfnPlanner")
     kind = _type_name(plugin)
