@@ -27,7 +27,7 @@ JUPYTER_ARGS ?=
 ROOT_FLAG := $(if $(filter 0,$(shell id -u)),--allow-root,)
 export KIT_FAST ?= 1
 
-.PHONY: lab reset demo test test-loaded lint typecheck pytest nbval solutions release bench clean
+.PHONY: lab reset demo test test-loaded lint typecheck warm pytest nbval solutions release bench clean
 
 $(BIN)/python:
 	@echo "make: creating the virtual environment .venv with $$($(PYTHON) --version)"
@@ -83,7 +83,15 @@ nbval: $(STAMP)
 	$(BIN)/pytest --nbval solutions --nbval-sanitize-with tests/nbval_sanitize.cfg -n 2 \
 		--dist loadscope -o addopts="" $(PYTEST_ARGS)
 
-test: lint typecheck pytest nbval
+# warm: numba's compiled functions made once (tests/warm_caches.py) on the core ruff and mypy
+# leave free, so that neither pytest worker, nor any subprocess or grading sandbox a test
+# starts, compiles them again
+warm: $(STAMP)
+	@$(BIN)/python tests/warm_caches.py
+
+test: $(STAMP)
+	@$(MAKE) --no-print-directory --jobs 3 --output-sync=target lint typecheck warm
+	@$(MAKE) --no-print-directory pytest nbval
 
 # make test while benchmarks/stress.py keeps every core busy: no test may depend on the
 # machine's speed (STRESS_WORKERS=N for another number of spinning processes)
