@@ -35,15 +35,8 @@ def _robots(args: argparse.Namespace) -> int:
 
 
 def _robot(args: argparse.Namespace) -> int:
-    from kit import description_files
-
-    if args.name in robots.ROBOTS and (args.params or args.xacro_arg or args.package_path):
-        raise ValueError(f"--params, --xacro-arg and --package-path go with a robot file, not "
-                         f"the shipped {args.name}")
-    r = robots.load(args.name, parameters=args.params,
-                    xacro_args=description_files.parse_xacro_args(args.xacro_arg),
-                    package_paths=description_files.parse_package_paths(args.package_path),
-                    topic=args.topic)
+    r = robots.load_from_options(args.name, args.params, args.xacro_arg, args.package_path,
+                                 topic=args.topic)
     print(f"{r.name}: {r.description}")
     print(f"  {'source':22s}{r.source}")
     for key in ("wheel_radius", "wheel_separation", "gear_ratio",

@@ -27,7 +27,7 @@ from __future__ import annotations
 import importlib.util
 import math
 import sys
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -442,3 +442,22 @@ def load(name_or_path: str | Path, *, parameters: str | Path | Mapping[str, Any]
     text, scan = description_files.read_bag_description(path, topic)
     return robot_from_urdf.build(text, f"{path} {topic}", path, params, where,
                                  [f"URDF from the bag's {topic}"], scan, packages)
+
+
+def load_from_options(name_or_path: str | Path, parameters: str | Path | None,
+                      xacro_args: Sequence[str] = (), package_paths: Sequence[str] = (),
+                      topic: str = "/robot_description",
+                      names: tuple[str, str, str] = ("--params", "--xacro-arg",
+                                                     "--package-path")) -> RobotDescription:
+    """:func:`load` with a command line's options: ``xacro_args`` as ``NAME:=VALUE`` and
+    ``package_paths`` as ``PKG=DIR`` strings. ``names`` are the three options as the command
+    spells them, for the error a shipped robot given any of them raises (``ValueError``)."""
+    from kit import description_files
+
+    if str(name_or_path) in ROBOTS and (parameters or xacro_args or package_paths):
+        raise ValueError(f"{', '.join(names[:2])} and {names[2]} go with a robot file, not "
+                         f"the shipped {name_or_path}")
+    return load(name_or_path, parameters=parameters,
+                xacro_args=description_files.parse_xacro_args(xacro_args),
+                package_paths=description_files.parse_package_paths(package_paths),
+                topic=topic)

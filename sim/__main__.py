@@ -239,15 +239,11 @@ def _navigate(args: argparse.Namespace) -> int:
 def _robot(args: argparse.Namespace) -> RobotDescription:
     """The ``--robot`` description, loaded once with its xacro arguments, package paths and
     parameter file."""
-    from kit import description_files, robots
+    from kit import robots
 
-    if args.robot in robots.ROBOTS and (args.robot_params or args.xacro_arg or
-                                        args.package_path):
-        raise ValueError(f"--robot-params, --xacro-arg and --package-path go with a robot "
-                         f"file, not the shipped {args.robot}")
-    return robots.load(args.robot, parameters=args.robot_params,
-                       xacro_args=description_files.parse_xacro_args(args.xacro_arg),
-                       package_paths=description_files.parse_package_paths(args.package_path))
+    return robots.load_from_options(args.robot, args.robot_params, args.xacro_arg,
+                                    args.package_path,
+                                    names=("--robot-params", "--xacro-arg", "--package-path"))
 
 
 if __name__ == "__main__":
