@@ -56,14 +56,17 @@ def package_errors(scene: str, particles: int, seeds: list[int], tmp_path: Path
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("particles", [2000, 10000])
-@pytest.mark.parametrize("scene", [
-    pytest.param("olin", marks=pytest.mark.dataset), "office"])
+@pytest.mark.parametrize("scene, particles", [
+    pytest.param("olin", 2000, marks=pytest.mark.dataset),
+    pytest.param("olin", 10000, marks=pytest.mark.dataset),
+    ("office", 2000)])
 def test_kit_amcl_tracks_within_1_2x_of_nav2s_amcl_set_alike(scene, particles, tmp_path,
                                                               request):
     """Mean position and heading error over every scan of every seeded track: the kit's at
     most 1.2× the package's; and the package itself tracks (a broken set-up of the
-    reference must not let the kit pass)."""
+    reference must not let the kit pass). The issue's bar is on the Olin map at 2,000 and
+    10,000 particles; the office at 2,000 is a second map (``benchmarks/amcl_vs_nav2.py``
+    runs both maps at both counts)."""
     pytest.importorskip("amcl")
     if scene == "olin":
         request.getfixturevalue("shared_data")
