@@ -81,8 +81,10 @@ def thin(points: FloatArray, spacing: float) -> FloatArray:
     if spacing <= 0 or len(points) == 0:
         return points
     cells = np.floor(points / spacing).astype(np.int64)
-    _, first = np.unique(cells, axis=0, return_index=True)
+    # return_index gives each cell's first point (np.unique sorts stably for it)
+    _, first = np.unique(correlative.cell_keys(cells), return_index=True)
     return points[np.sort(first)]
+
 
 
 def scan_points(scan: msgs.LaserScan, base_to_laser: ArrayLike = (0.0, 0.0, 0.0),

@@ -10,7 +10,8 @@ import pytest
 
 from kit import geometry, maps
 from kit.cli import main as kit_main
-from kit.slam import carmen, frontend, offline
+from kit.slam import carmen, correlative, frontend, offline
+from kit.slam.frontend import thin
 
 ROOM = np.array([[0, 0], [12, 0], [12, 6], [7, 6], [7, 3.5], [5, 3.5], [5, 6], [0, 6]], float)
 
@@ -268,3 +269,18 @@ def test_gazebo_turtlebot3_bag_is_mapped(shared_data, tmp_path):
     world = maps.read_map(shared_data / "maps/turtlebot3-world-nav2/map.yaml")
     share, _ = evaluate.map_agreement(ours, world)
     assert share >= 0.8
+
+
+def test_thinning_keeps_each_cells_first_point_as_numpys_row_unique_finds_it():
+    """``thin`` and the correlative field's cells, keyed by one integer per cell, agree with
+    ``np.unique(cells, axis=0)`` (rows compared as rows) on scattered and negative cells."""
+    rng = np.random.default_rng(4)
+    points = rng.uniform(-7.0, 5.0, (3000, 2)) * [1.0, 0.3]
+    cells = np.floor(points / 0.05).astype(np.int64)
+    _, first = np.unique(cells, axis=0, return_index=True)
+    assert np.array_equal(thin(points, 0.05), points[np.sort(first)])
+    keys = correlative.cell_keys(cells)
+    assert len(np.unique(keys)) == len(first)
+    field = correlative.likelihood_field(points, 0.05, 0.05, margin=0.3)
+    again = correlative.likelihood_field(points[::-1], 0.05, 0.05, margin=0.3)
+    assert np.array_equal(field.values, again.values)
