@@ -183,45 +183,64 @@ def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, ix: IntArra
     """The best ``(angle index, dx, dy [cells], score)`` over angles and offsets in
     ``[−half, half]²``: blocks of ``factor²`` offsets scored on ``coarse`` (an upper bound,
     the penalty taken at the block's offset nearest the guess), best bound first; a block's
-    fine offsets are scored only while its bound beats the best score found."""
+    fine offsets are scored only while its bound beats the best score found.
+
+    Each sum runs over the points in their order (``j`` ascending), point by point for all
+    offsets at once, so the table is read along its rows; the offsets are then taken in the
+    order a block lists them."""
     k_count, m = ix.shape
     f = factor
     starts = np.arange(-half, half + 1, f)
     nb = len(starts)
-    bound = np.empty(k_count * nb * nb)
     ch, cw = coarse.shape
+    sums = np.zeros((k_count, nb, nb))           # [k, y block, x block]
+    for k in range(k_count):
+        for j in range(m):
+            cx0, cy0 = ix[k, j] + f - 1, iy[k, j] + f - 1
+            for b in range(nb):
+                cy = cy0 + starts[b]
+                if cy < 0 or cy >= ch:
+                    continue
+                for a in range(nb):
+                    cx = cx0 + starts[a]
+                    if 0 <= cx < cw:
+                        sums[k, b, a] += coarse[cy, cx]
+    bound = np.empty(k_count * nb * nb)
     for k in range(k_count):
         for a in range(nb):
             for b in range(nb):
                 ox, oy = starts[a], starts[b]
-                s = 0.0
-                for j in range(m):
-                    cx, cy = ix[k, j] + ox + f - 1, iy[k, j] + oy + f - 1
-                    if 0 <= cx < cw and 0 <= cy < ch:
-                        s += coarse[cy, cx]
                 nx = 0 if ox <= 0 < ox + f else min(abs(ox), abs(ox + f - 1))
                 ny = 0 if oy <= 0 < oy + f else min(abs(oy), abs(oy + f - 1))
                 pen = angle_penalty[k] - linear_penalty * (nx * nx + ny * ny)
-                bound[(k * nb + a) * nb + b] = s / m * max(pen, 0.0)
+                bound[(k * nb + a) * nb + b] = sums[k, b, a] / m * max(pen, 0.0)
     order = np.argsort(-bound)
     best_k, best_x, best_y, best = k_count // 2, 0, 0, -1.0
     h, w = values.shape
+    fine = np.zeros((f, f))                     # [dy − oy, dx − ox]
     for n in order:
         if bound[n] <= best:
             break
         k = n // (nb * nb)
         ox, oy = starts[(n // nb) % nb], starts[n % nb]
-        for dx in range(ox, min(ox + f, half + 1)):
-            for dy in range(oy, min(oy + f, half + 1)):
+        x_end, y_end = min(ox + f, half + 1), min(oy + f, half + 1)
+        fine[:, :] = 0.0
+        for j in range(m):
+            px, py = ix[k, j], iy[k, j]
+            for dy in range(oy, y_end):
+                cy = py + dy
+                if cy < 0 or cy >= h:
+                    continue
+                for dx in range(ox, x_end):
+                    cx = px + dx
+                    if 0 <= cx < w:
+                        fine[dy - oy, dx - ox] += values[cy, cx]
+        for dx in range(ox, x_end):
+            for dy in range(oy, y_end):
                 pen = angle_penalty[k] - linear_penalty * (dx * dx + dy * dy)
                 if pen <= 0.0:
                     continue
-                s = 0.0
-                for j in range(m):
-                    cx, cy = ix[k, j] + dx, iy[k, j] + dy
-                    if 0 <= cx < w and 0 <= cy < h:
-                        s += values[cy, cx]
-                s = s / m * pen
+                s = fine[dy - oy, dx - ox] / m * pen
                 if s > best:
                     best_k, best_x, best_y, best = k, dx, dy, s
     return best_k, best_x, best_y, best
