@@ -107,6 +107,33 @@ def test_bad_pose_raises_with_expected_shape(bad):
         g.compose(bad, [0, 0, 0])
 
 
+@pytest.mark.parametrize(("q_shape", "v_shape"), [((4,), (3,)), ((6, 4), (6, 3)),
+                                                    ((4,), (7, 3)), ((5, 4), (3,)),
+                                                    ((2, 3, 4), (2, 3, 3))])
+def test_quaternion_rotate_is_scipys_rotation_and_numpys_cross_product_to_the_bit(q_shape,
+                                                                                   v_shape):
+    """``v + w t + u × t`` with ``t = 2 u × v``: scipy's ``Rotation.apply`` to rounding, and
+    the same formula on ``np.cross`` exactly (one quaternion and one vector take a path of
+    their own, on Python floats)."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(sum(q_shape) + 10 * sum(v_shape))
+    for _ in range(50):
+        q = rng.normal(size=q_shape)
+        q /= np.linalg.norm(q, axis=-1, keepdims=True)
+        v = rng.normal(size=v_shape) * 10.0 ** rng.integers(-3, 4)
+        got = g.quaternion_rotate(q, v)
+        u, w = q[..., :3], q[..., 3:4]
+        t = 2.0 * np.cross(u, v)
+        assert np.array_equal(got, v + w * t + np.cross(u, t))
+        flat_q = np.broadcast_to(q, (*np.broadcast_shapes(q.shape[:-1], v.shape[:-1]), 4))
+        flat_v = np.broadcast_to(v, (*flat_q.shape[:-1], 3))
+        rotation = Rotation.from_quat(np.array(flat_q).reshape(-1, 4))
+        want = rotation.apply(np.array(flat_v).reshape(-1, 3))
+        np.testing.assert_allclose(got.reshape(-1, 3), want, rtol=1e-12,
+                                   atol=1e-12 * np.abs(v).max())
+
+
 def test_bad_quaternion_shape_raises():
     with pytest.raises(ValueError, match=r"ROS order \(x, y, z, w\)"):
         g.quaternion_to_yaw([0, 0, 1])
