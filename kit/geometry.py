@@ -197,8 +197,18 @@ def rpy_to_quaternion(roll: float, pitch: float, yaw: float) -> FloatArray:
 
 
 def quaternion_multiply(q1: ArrayLike, q2: ArrayLike) -> FloatArray:
-    """Hamilton product ``q1 * q2`` of quaternions in ROS order, shape (..., 4)."""
+    """Hamilton product ``q1 * q2`` of quaternions in ROS order, shape (..., 4).
+
+    Two single quaternions take the same terms on Python floats, in the same order: the same
+    result to the bit, without numpy's per-call cost."""
     a, b = np.asarray(q1, dtype=np.float64), np.asarray(q2, dtype=np.float64)
+    if a.shape == (4,) and b.shape == (4,):
+        x1, y1, z1, w1 = a.tolist()
+        x2, y2, z2, w2 = b.tolist()
+        return np.array([w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                         w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                         w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+                         w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2])
     x1, y1, z1, w1 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
     x2, y2, z2, w2 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
     return np.stack([

@@ -134,6 +134,23 @@ def test_quaternion_rotate_is_scipys_rotation_and_numpys_cross_product_to_the_bi
                                    atol=1e-12 * np.abs(v).max())
 
 
+def test_one_quaternion_product_is_the_batched_one_to_the_bit_and_scipys_to_rounding():
+    """The single-quaternion path against the array path (a batch of two) and scipy's
+    composition of rotations."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(5)
+    for _ in range(500):
+        q = rng.normal(size=(2, 4)) * 10.0 ** rng.integers(-2, 3)
+        p = rng.normal(size=(2, 4))
+        assert np.array_equal(g.quaternion_multiply(q[0], p[0]),
+                              g.quaternion_multiply(q, p)[0])
+    q, p = (r / np.linalg.norm(r) for r in rng.normal(size=(2, 4)))
+    want = (Rotation.from_quat(q) * Rotation.from_quat(p)).as_quat()
+    got = g.quaternion_multiply(q, p)
+    np.testing.assert_allclose(got * np.sign(got[3]), want * np.sign(want[3]), atol=1e-12)
+
+
 def test_bad_quaternion_shape_raises():
     with pytest.raises(ValueError, match=r"ROS order \(x, y, z, w\)"):
         g.quaternion_to_yaw([0, 0, 1])
