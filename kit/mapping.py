@@ -302,12 +302,20 @@ class OccupancyGridMap:
         if self.update is None:
             run(self.log_odds, start, cells[1:], hit, m.l_free, m.l_occupied, m.l_min, m.l_max)
             return
-        change, touched = np.zeros_like(self.log_odds), np.zeros_like(self.log_odds)
-        run(change, start, cells[1:], hit, m.l_free, m.l_occupied, -np.inf, np.inf)
-        run(touched, start, cells[1:], hit, 1.0, 1.0, -np.inf, np.inf)
+        # the beams' cells all lie in the box of their ends: the changes are traced there
+        lo, hi = cells.min(axis=0), cells.max(axis=0)
+        box = (int(hi[1] - lo[1]) + 1, int(hi[0] - lo[0]) + 1)
+        local = cells - lo
+        at = (int(local[0, 0]), int(local[0, 1]))
+        change = np.zeros(box, dtype=self.log_odds.dtype)
+        touched = np.zeros(box, dtype=self.log_odds.dtype)
+        run(change, at, local[1:], hit, m.l_free, m.l_occupied, -np.inf, np.inf)
+        run(touched, at, local[1:], hit, 1.0, 1.0, -np.inf, np.inf)
         rows, cols = np.nonzero(touched)
-        new = np.asarray(self.update(self.log_odds[rows, cols], change[rows, cols], m.l_min,
-                                     m.l_max), dtype=np.float64)
+        change = change[rows, cols]
+        rows, cols = rows + int(lo[1]), cols + int(lo[0])
+        new = np.asarray(self.update(self.log_odds[rows, cols], change, m.l_min, m.l_max),
+                         dtype=np.float64)
         if new.shape != rows.shape:
             raise ValueError(f"update must return one log-odds per cell, shape {rows.shape}; "
                              f"got {new.shape}")
