@@ -109,7 +109,8 @@ def _record(h: Any, sim: Simulation, out: list[tuple[str, Any]]) -> None:
         _feed(h, message)
         if topic.endswith("/scan"):   # the float64 ranges the scan was made from
             index = int(topic[6:-5]) if topic.startswith("/robot") else 0
-            _feed(h, sim.robots[index].lidar.last_ranges)
+            lidar = sim.robots[index].lidar
+            _feed(h, None if lidar is None else lidar.last_ranges)
     for i, r in enumerate(sim.robots):
         _feed(h, r.xy_yaw)
         _feed(h, (r.forward_speed, r.yaw_rate, r.world_velocity, r.accel, r.yaw_accel))

@@ -7,7 +7,9 @@ to walls and people (not glass) with noise and dropouts. Ground truth is never i
 
 from __future__ import annotations
 
+import itertools
 import math
+import operator
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -18,7 +20,7 @@ from numpy.typing import NDArray
 from kit import msgs
 from sim.raycast import _beam_geometry, _cast_scan, segments_near
 
-__all__ = ["Imu", "Lidar", "encoder_counts", "stamp_of"]
+__all__ = ["Imu", "Lidar", "encoder_counts", "finish_scans", "stamp_of"]
 
 FloatArray = NDArray[np.float64]
 GRAVITY = 9.80665
@@ -230,15 +232,22 @@ class Lidar:
                 ) -> msgs.LaserScan | None:
         """Record one physics step (sensor-carrier poses at ``t0`` and ``t1``, the people's
         discs during it); return a scan once its last beam's time has passed."""
-        if not self._times:
-            self._times.append(t0)
-            self._poses.append(pose0)
-        self._times.append(t1)
-        self._poses.append(pose1)
-        self._people.append(people)
-        if t1 + 1e-12 < self.scan_start + self.time_increment * (self.beams - 1):
+        if not self.record(t0, t1, pose0, pose1, people):
             return None
         return self._finish(segments, circles)
+
+    def record(self, t0: float, t1: float, pose0: Sequence[float], pose1: Sequence[float],
+               people: FloatArray) -> bool:
+        """:meth:`collect`'s recording alone: whether a scan is now due (:func:`finish_scans`
+        makes it, with the other lidars' due in the same step)."""
+        times = self._times
+        if not times:
+            times.append(t0)
+            self._poses.append(pose0)
+        times.append(t1)
+        self._poses.append(pose1)
+        self._people.append(people)
+        return t1 + 1e-12 >= self.scan_start + self.time_increment * (self.beams - 1)
 
     def _finish(self, segments: FloatArray, circles: FloatArray) -> msgs.LaserScan:
         # beam_geometry and cast_scan without their wrappers' conversions: every argument
@@ -262,6 +271,12 @@ class Lidar:
         ranges32, intensities = _measure(ranges, noise, drops, self.dropout, self.range_min,
                                          self.range_max)
         ranges32.flags.writeable = intensities.flags.writeable = False  # handed over
+        return self._message(ranges32, intensities)
+
+    def _message(self, ranges32: NDArray[np.float32], intensities: NDArray[np.float32]
+                 ) -> msgs.LaserScan:
+        """The scan's message (read-only float32 ``ranges32`` and ``intensities``), and the
+        next scan's start."""
         # every field is already normal (float32-rounded numbers, read-only float32 arrays)
         scan = _laser_scan(_header(stamp_of(self.scan_start), self.frame_id),
                            *self._fields32, ranges32, intensities)
@@ -288,3 +303,108 @@ class Lidar:
                 dtype=np.float64).reshape(-1, 4)
             self._near = cached = (segments, x, y, near)
         return cached[3]
+
+
+_same = operator.is_
+_chain = itertools.chain.from_iterable
+_scan_parameters = operator.attrgetter(
+    "time_increment", "beams", "_mount_x", "_mount_y", "_angle0", "increment", "range_min",
+    "range_max", "dropout")
+
+
+def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatArray
+                 ) -> list[msgs.LaserScan]:
+    """The scans of ``lidars`` (each :meth:`Lidar.record` said it was due in this step), in
+    order: what :meth:`Lidar.collect` would have returned for each.
+
+    Lidars that recorded the same steps (the same times and the same people's discs: robots
+    of one simulation whose scans started together) are cast in one compiled call — beam
+    geometry, walls within reach, casting, noise, dropouts and the float32 ranges of every
+    scan — with the same arithmetic as each lidar's own; any other set, one by one."""
+    first = lidars[0]
+    times, people = first._times, first._people
+    if len(lidars) == 1 or not all(
+            lidar._times == times and len(lidar._people) == len(people) and
+            all(map(_same, lidar._people, people)) for lidar in lidars[1:]):
+        return [lidar._finish(segments, circles) for lidar in lidars]
+    # each lidar's draws from its own generator, in the order _finish takes them
+    noise: list[FloatArray] = []
+    drops: list[FloatArray] = []
+    noise_at, drops_at = [0], [0]
+    for lidar in lidars:
+        if lidar.noise_std:
+            noise.append(lidar.rng.normal(0.0, lidar.noise_std, lidar.beams))
+        noise_at.append(noise_at[-1] + (lidar.beams if lidar.noise_std else 0))
+        if lidar.dropout:
+            drops.append(lidar.rng.random(lidar.beams))
+        drops_at.append(drops_at[-1] + (lidar.beams if lidar.dropout else 0))
+    beams_at = np.cumsum([0] + [lidar.beams for lidar in lidars])
+    ranges, ranges32, intensities = _scan_many(
+        np.array(times), np.fromiter(_chain(_chain(lidar._poses for lidar in lidars)),
+                                     np.float64, 3 * len(lidars) * len(times)
+                                     ).reshape(len(lidars), len(times), 3),
+        np.array(people) if people[0].size else _NO_PEOPLE,
+        np.array([lidar.scan_start for lidar in lidars]),
+        np.array([_scan_parameters(lidar) for lidar in lidars], dtype=np.float64), beams_at,
+        np.concatenate(noise) if noise else _NO_DRAWS, np.array(noise_at),
+        np.concatenate(drops) if drops else _NO_DRAWS, np.array(drops_at),
+        np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4),
+        first._circles(circles))
+    ranges.flags.writeable = ranges32.flags.writeable = intensities.flags.writeable = False
+    scans = []
+    for k, lidar in enumerate(lidars):
+        a, b = int(beams_at[k]), int(beams_at[k + 1])
+        # keep the last step: the next scan's first beams may fall inside it
+        lidar._times, lidar._poses = lidar._times[-2:], lidar._poses[-2:]
+        lidar._people = lidar._people[-1:]
+        lidar.last_ranges = ranges[a:b]
+        scans.append(lidar._message(ranges32[a:b], intensities[a:b]))
+    return scans
+
+
+@njit(cache=True)
+def _scan_many(times: FloatArray, poses: FloatArray, people: FloatArray, starts: FloatArray,
+               parameters: FloatArray, beams_at: NDArray[np.int64], noise: FloatArray,
+               noise_at: NDArray[np.int64], drops: FloatArray, drops_at: NDArray[np.int64],
+               segments: FloatArray, circles: FloatArray
+               ) -> tuple[FloatArray, NDArray[np.float32],
+                          NDArray[np.float32]]:  # pragma: no cover - compiled by numba
+    """Every lidar's scan from the steps they all recorded: ``poses`` (L, S + 1, 3), one
+    row of :data:`_scan_parameters` and one start time per lidar, their noise and dropout
+    draws one after the other (``noise_at``, ``drops_at``: where each lidar's begin and
+    end; none for a lidar without); the float64 ranges, the float32 ranges and the
+    intensities of all scans one after the other (``beams_at``)."""
+    total = beams_at[-1]
+    out = np.empty(total)
+    out32 = np.empty(total, dtype=np.float32)
+    intensities = np.empty(total, dtype=np.float32)
+    for k in range(poses.shape[0]):
+        p = parameters[k]
+        n, range_max = int(p[1]), p[7]
+        ox, oy, angles, step = _beam_geometry(times, poses[k], starts[k], p[0], n, p[2], p[3],
+                                              p[4], p[5])
+        ranges = _cast_scan(ox, oy, angles, _walls_near(segments, ox[0], oy[0],
+                                                        range_max + 2.0),
+                            circles, people, step, range_max)
+        r32, i32 = _measure(ranges, noise[noise_at[k]:noise_at[k + 1]],
+                            drops[drops_at[k]:drops_at[k + 1]], p[8], p[6], range_max)
+        a = beams_at[k]
+        out[a:a + n] = ranges
+        out32[a:a + n] = r32
+        intensities[a:a + n] = i32
+    return out, out32, intensities
+
+
+@njit(cache=True)
+def _walls_near(segments: FloatArray, x: float, y: float, reach: float
+                ) -> FloatArray:  # pragma: no cover - compiled by numba
+    """:func:`sim.raycast.segments_near`'s bounding-box cull, compiled. Which walls the
+    caster is given never changes a range, as long as none within reach is left out: a
+    wall out of the box is hit, if at all, only beyond ``range_max``, where every beam
+    reports ``inf`` anyway."""
+    keep = np.empty(segments.shape[0], dtype=np.bool_)
+    for j in range(segments.shape[0]):
+        x1, y1, x2, y2 = segments[j, 0], segments[j, 1], segments[j, 2], segments[j, 3]
+        keep[j] = (min(x1, x2) <= x + reach and min(y1, y2) <= y + reach and
+                   max(x1, x2) >= x - reach and max(y1, y2) >= y - reach)
+    return segments[keep]

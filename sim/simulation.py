@@ -39,7 +39,7 @@ from kit.control import DCMotor
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
 from sim import _walk as _walk_rules
-from sim.sensors import Imu, Lidar, encoder_counts, stamp_of
+from sim.sensors import Imu, Lidar, encoder_counts, finish_scans, stamp_of
 from sim.world import World, along_walls, free_distance, load_world
 
 __all__ = ["Collision", "GroundTruth", "Physics", "Simulation"]
@@ -906,12 +906,13 @@ class Simulation:
         segments, circles = self.world.lidar_segments, self.world.circles
         # this step's headers, one per frame: every robot's messages share them (immutable)
         headers: dict[str, msgs.Header] = {}
+        due: list[tuple[int, Lidar]] = []   # the scans due now: their places in out
         for i, r in enumerate(robots):
             self._read_state(r, dt)
-            if r.lidar is not None:
-                scan = r.lidar.collect(t0, t1, before[i], r.xy_yaw, discs, segments, circles)
-                if scan is not None:
-                    out.append((r.topics[0], scan))
+            lidar = r.lidar
+            if lidar is not None and lidar.record(t0, t1, before[i], r.xy_yaw, discs):
+                due.append((len(out), lidar))
+                out.append((r.topics[0], None))
             imu = r.imu
             if imu is not None and t1 + 1e-12 >= imu.next_time:
                 header = headers.get(imu.frame_id) or self._header(headers, imu.frame_id)
@@ -921,6 +922,10 @@ class Simulation:
                 r.next_joint_state += 0.02
                 header = headers.get("") or self._header(headers, "")
                 out.append((r.topics[2], self._joint_state(r, header)))
+        if due:   # all the scans of this step at once (in one compiled call when they can)
+            scans = finish_scans([lidar for _, lidar in due], segments, circles)
+            for (k, _), scan in zip(due, scans, strict=True):
+                out[k] = (out[k][0], scan)
         return out
 
     def _header(self, headers: dict[str, msgs.Header], frame_id: str) -> msgs.Header:
