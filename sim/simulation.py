@@ -213,6 +213,10 @@ class _Robot:
         self.xy_yaw: tuple[float, float, float] = (0.0, 0.0, 0.0)
         """(x, y, yaw) [m, m, rad] as plain floats (a new tuple each step, never changed)."""
         self.cp_body: Any = self.body._body
+        self.wheel_radius: float = self.description.wheel_radius
+        self.ticks_per_rad: float = self.description.ticks_per_wheel_turn / (2 * math.pi)
+        """encoder ticks per radian of wheel rotation (as :meth:`Simulation._joint_state`
+        computes it)."""
         self.cp_grounds: tuple[Any, ...] = tuple(g._body for g in self.grounds)
 
     @property
@@ -854,6 +858,51 @@ class Simulation:
                     r.on_oil[k] = slippery
                     r.joints[k].max_force = r.oil_force if slippery else r.traction
 
+    def _drive_servos(self, robots: list[_Robot], dt: float) -> None:
+        """:meth:`_drive` for every robot when the wheels are ideal servos on a floor without
+        micro-slip (no ``wheel_motor``, no ``slip_variance``): the same arithmetic, operation
+        for operation, in one loop with both wheels written out (this runs for every robot
+        at every step)."""
+        rects = self.world._oil_rects if self._oil else ()
+        for r in robots:
+            cp_body = r.cp_body
+            angle = _body_angle(cp_body)
+            c, s = math.cos(angle), math.sin(angle)
+            speeds, angles, (target_r, target_l) = r.speeds, r.angles, r.targets
+            limit, wheel_radius = r.limit, r.wheel_radius
+            factor_r, factor_l = r.radius_factors
+            ground_r, ground_l = r.cp_grounds
+            speed = speeds[0]
+            change = target_r - speed
+            speed = speed + (limit if change > limit else -limit if change < -limit else change)
+            speeds[0] = speed
+            angles[0] += speed * dt
+            rim = speed * wheel_radius * factor_r
+            _set_body_velocity(ground_r, (rim * c, rim * s))
+            speed = speeds[1]
+            change = target_l - speed
+            speed = speed + (limit if change > limit else -limit if change < -limit else change)
+            speeds[1] = speed
+            angles[1] += speed * dt
+            rim = speed * wheel_radius * factor_l
+            _set_body_velocity(ground_l, (rim * c, rim * s))
+            if rects:
+                position = _body_position(cp_body)
+                px, py = position.x, position.y
+                on_oil = r.on_oil
+                for k in (0, 1):
+                    x, y = r.wheel_points[k]
+                    wx, wy = px + c * x - s * y, py + s * x + c * y
+                    # World.in_oil, written out
+                    slippery = False
+                    for x0, y0, x1, y1 in rects:
+                        if x0 <= wx <= x1 and y0 <= wy <= y1:
+                            slippery = True
+                            break
+                    if slippery != on_oil[k]:  # pymunk's setters are dear: only on a change
+                        on_oil[k] = slippery
+                        r.joints[k].max_force = r.oil_force if slippery else r.traction
+
     def _read_state(self, r: _Robot, dt: float | None = None) -> None:
         cp_body = r.cp_body
         angle = _body_angle(cp_body)
@@ -897,8 +946,11 @@ class Simulation:
             self._walk()  # people decide where to go ten times a second
         robots = self.robots
         before = [r.xy_yaw for r in robots]  # _read_state replaces it with a new tuple
-        for r in robots:
-            self._drive(r, dt)
+        if ph.wheel_motor is None and not ph.slip_variance:
+            self._drive_servos(robots, dt)
+        else:
+            for r in robots:
+                self._drive(r, dt)
         self._step_space(dt / ph.substeps, ph.substeps)
         self.time = t1
         out: list[tuple[str, Any]] = []
@@ -907,6 +959,7 @@ class Simulation:
         # this step's headers, one per frame: every robot's messages share them (immutable)
         headers: dict[str, msgs.Header] = {}
         due: list[tuple[int, Lidar]] = []   # the scans due now: their places in out
+        joints_due: list[tuple[int, _Robot]] = []   # and the joint states
         for i, r in enumerate(robots):
             self._read_state(r, dt)
             lidar = r.lidar
@@ -920,12 +973,17 @@ class Simulation:
                                                      r.accel, header)))
             if t1 + 1e-12 >= r.next_joint_state:
                 r.next_joint_state += 0.02
-                header = headers.get("") or self._header(headers, "")
-                out.append((r.topics[2], self._joint_state(r, header)))
+                joints_due.append((len(out), r))
+                out.append((r.topics[2], None))
         if due:   # all the scans of this step at once (in one compiled call when they can)
             scans = finish_scans([lidar for _, lidar in due], segments, circles)
             for (k, _), scan in zip(due, scans, strict=True):
                 out[k] = (out[k][0], scan)
+        if joints_due:
+            header = headers.get("") or self._header(headers, "")
+            for (k, _), state in zip(joints_due, self._joint_states(
+                    [r for _, r in joints_due], header), strict=True):
+                out[k] = (out[k][0], state)
         return out
 
     def _header(self, headers: dict[str, msgs.Header], frame_id: str) -> msgs.Header:
@@ -988,6 +1046,20 @@ class Simulation:
     def joint_state(self, robot: int = 0) -> msgs.JointState:
         """Wheel positions [rad] from the encoders (quantised) and the servos' speeds."""
         return self._joint_state(self.robots[robot], _header(stamp_of(self.time), ""))
+
+    @staticmethod
+    def _joint_states(robots: list[_Robot], header: msgs.Header) -> list[msgs.JointState]:
+        """:meth:`_joint_state` of several robots, their arrays made together: the same
+        numbers (``np.floor`` of the same products, made a float as ``math.floor``'s integer
+        is: ``+ 0.0`` turns a ``-0.0`` into ``0.0``)."""
+        angles = np.array([r.angles for r in robots])
+        per_rad = np.array([r.ticks_per_rad for r in robots])[:, None]
+        positions = (np.floor(angles * per_rad) + 0.0) / per_rad
+        velocities = np.array([r.speeds for r in robots])
+        positions.flags.writeable = velocities.flags.writeable = False  # handed over
+        # each message's arrays are rows of these (read-only float64, two wheels each)
+        return [_joint_state(header, _WHEEL_JOINTS, position, velocity, _NO_EFFORT)
+                for position, velocity in zip(positions, velocities, strict=True)]
 
     @staticmethod
     def _joint_state(r: _Robot, header: msgs.Header) -> msgs.JointState:
