@@ -419,6 +419,12 @@ class Simulation:
                         np.cumsum([0, *lengths])[:-1].astype(np.int64),
                         np.array(lengths, dtype=np.int64))
         corners = [len(r.description.footprint) for r in self.robots]
+        groups: dict[tuple[tuple[int, ...], bytes], list[int]] = {}
+        for k, r in enumerate(self.robots):   # the robots of one footprint, for _walk
+            footprint = np.ascontiguousarray(r.description.footprint, dtype=np.float64)
+            groups.setdefault((footprint.shape, footprint.tobytes()), []).append(k)
+        self._footprint_groups = [(self.robots[g[0]].description.footprint,
+                                   np.array(g, dtype=np.intp)) for g in groups.values()]
         self._footprints = (
             np.array(corners, dtype=np.int64),
             np.array([float(np.ptp(r.description.footprint[:, 1])) for r in self.robots]),
@@ -575,13 +581,17 @@ class Simulation:
             crowd.speed[i] = float(self.rng.uniform(0.8, 1.4))
         corners, widths, most = self._footprints
         outlines = np.zeros((len(robots), most, 2))
-        for k, r in enumerate(robots):
-            # kit.geometry.transform_points's arithmetic: numpy's product (which may fuse a
-            # multiply and an add), then the position added
-            c, s = math.cos(r.yaw), math.sin(r.yaw)
-            rotated = r.description.footprint @ np.array(((c, -s), (s, c))).T
-            np.add(rotated, (r.x, r.y), out=outlines[k, :corners[k]])
         where = np.array([(r.x, r.y) for r in robots]).reshape(-1, 2)
+        rotations: list[tuple[tuple[float, float], tuple[float, float]]] = []
+        for r in robots:
+            c, s = math.cos(r.yaw), math.sin(r.yaw)
+            rotations.append(((c, -s), (s, c)))
+        turn = np.array(rotations).reshape(-1, 2, 2).transpose(0, 2, 1)
+        for footprint, group in self._footprint_groups:
+            # kit.geometry.transform_points's arithmetic: numpy's product (which may fuse a
+            # multiply and an add; stacked, each robot's is the product it would be alone),
+            # then the position added
+            outlines[group, :len(footprint)] = footprint @ turn[group] + where[group, None, :]
         moving = np.array([r.world_velocity for r in robots]).reshape(-1, 2)
         walking = _walk_rules.walk(positions, body_velocities, crowd.speed, routes, start,
                                    length, crowd.target, crowd.direction, crowd.blocked,
