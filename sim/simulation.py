@@ -423,8 +423,8 @@ class Simulation:
         for k, r in enumerate(self.robots):   # the robots of one footprint, for _walk
             footprint = np.ascontiguousarray(r.description.footprint, dtype=np.float64)
             groups.setdefault((footprint.shape, footprint.tobytes()), []).append(k)
-        self._footprint_groups = [(self.robots[g[0]].description.footprint,
-                                   np.array(g, dtype=np.intp)) for g in groups.values()]
+        self._footprint_groups = [(self.robots[g[0]].description.footprint, g)
+                                  for g in groups.values()]
         self._footprints = (
             np.array(corners, dtype=np.int64),
             np.array([float(np.ptp(r.description.footprint[:, 1])) for r in self.robots]),
@@ -582,16 +582,21 @@ class Simulation:
         corners, widths, most = self._footprints
         outlines = np.zeros((len(robots), most, 2))
         where = np.array([(r.x, r.y) for r in robots]).reshape(-1, 2)
-        rotations: list[tuple[tuple[float, float], tuple[float, float]]] = []
-        for r in robots:
-            c, s = math.cos(r.yaw), math.sin(r.yaw)
-            rotations.append(((c, -s), (s, c)))
-        turn = np.array(rotations).reshape(-1, 2, 2).transpose(0, 2, 1)
         for footprint, group in self._footprint_groups:
             # kit.geometry.transform_points's arithmetic: numpy's product (which may fuse a
             # multiply and an add; stacked, each robot's is the product it would be alone),
             # then the position added
-            outlines[group, :len(footprint)] = footprint @ turn[group] + where[group, None, :]
+            rotations: list[tuple[tuple[float, float], tuple[float, float]]] = []
+            for k in group:
+                c, s = math.cos(robots[k].yaw), math.sin(robots[k].yaw)
+                rotations.append(((c, -s), (s, c)))
+            if len(group) == 1:
+                k = group[0]
+                np.add(footprint @ np.array(rotations[0]).T, (robots[k].x, robots[k].y),
+                       out=outlines[k, :len(footprint)])
+            else:
+                turn = np.array(rotations).transpose(0, 2, 1)
+                outlines[group, :len(footprint)] = footprint @ turn + where[group, None, :]
         moving = np.array([r.world_velocity for r in robots]).reshape(-1, 2)
         walking = _walk_rules.walk(positions, body_velocities, crowd.speed, routes, start,
                                    length, crowd.target, crowd.direction, crowd.blocked,
@@ -968,8 +973,27 @@ class Simulation:
         segments, circles = self.world.lidar_segments, self.world.circles
         # this step's headers, one per frame: every robot's messages share them (immutable)
         headers: dict[str, msgs.Header] = {}
-        due: list[tuple[int, Lidar]] = []   # the scans due now: their places in out
-        joints_due: list[tuple[int, _Robot]] = []   # and the joint states
+        if len(robots) == 1:   # one robot: its messages made as they come
+            r = robots[0]
+            self._read_state(r, dt)
+            if r.lidar is not None:
+                scan = r.lidar.collect(t0, t1, before[0], r.xy_yaw, discs, segments, circles)
+                if scan is not None:
+                    out.append((r.topics[0], scan))
+            imu = r.imu
+            if imu is not None and t1 + 1e-12 >= imu.next_time:
+                header = self._header(headers, imu.frame_id)
+                out.append((r.topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
+                                                     r.accel, header)))
+            if t1 + 1e-12 >= r.next_joint_state:
+                r.next_joint_state += 0.02
+                header = headers.get("") or self._header(headers, "")
+                out.append((r.topics[2], self._joint_state(r, header)))
+            return out
+        # several: the scans and joint states due now made together after the loop, into
+        # their places in out (the scans in one compiled call when they can)
+        due: list[tuple[int, Lidar]] = []
+        joints_due: list[tuple[int, _Robot]] = []
         for i, r in enumerate(robots):
             self._read_state(r, dt)
             lidar = r.lidar
@@ -985,7 +1009,7 @@ class Simulation:
                 r.next_joint_state += 0.02
                 joints_due.append((len(out), r))
                 out.append((r.topics[2], None))
-        if due:   # all the scans of this step at once (in one compiled call when they can)
+        if due:
             scans = finish_scans([lidar for _, lidar in due], segments, circles)
             for (k, _), scan in zip(due, scans, strict=True):
                 out[k] = (out[k][0], scan)
@@ -1059,13 +1083,18 @@ class Simulation:
 
     @staticmethod
     def _joint_states(robots: list[_Robot], header: msgs.Header) -> list[msgs.JointState]:
-        """:meth:`_joint_state` of several robots, their arrays made together: the same
-        numbers (``np.floor`` of the same products, made a float as ``math.floor``'s integer
-        is: ``+ 0.0`` turns a ``-0.0`` into ``0.0``)."""
-        angles = np.array([r.angles for r in robots])
-        per_rad = np.array([r.ticks_per_rad for r in robots])[:, None]
-        positions = (np.floor(angles * per_rad) + 0.0) / per_rad
-        velocities = np.array([r.speeds for r in robots])
+        """:meth:`_joint_state` of several robots, the same numbers, their arrays rows of
+        one array each (two numpy calls instead of two per robot)."""
+        floor = math.floor
+        wheels: list[float] = []
+        speeds: list[float] = []
+        for r in robots:
+            per_rad = r.ticks_per_rad
+            right, left = r.angles
+            wheels += (floor(right * per_rad) / per_rad, floor(left * per_rad) / per_rad)
+            speeds += r.speeds
+        positions = np.array(wheels).reshape(-1, 2)
+        velocities = np.array(speeds).reshape(-1, 2)
         positions.flags.writeable = velocities.flags.writeable = False  # handed over
         # each message's arrays are rows of these (read-only float64, two wheels each)
         return [_joint_state(header, _WHEEL_JOINTS, position, velocity, _NO_EFFORT)
@@ -1073,7 +1102,7 @@ class Simulation:
 
     @staticmethod
     def _joint_state(r: _Robot, header: msgs.Header) -> msgs.JointState:
-        per_rad = r.description.ticks_per_wheel_turn / (2 * math.pi)
+        per_rad = r.ticks_per_rad
         right, left = r.angles
         position = np.array((math.floor(right * per_rad) / per_rad,
                              math.floor(left * per_rad) / per_rad))
