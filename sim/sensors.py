@@ -10,7 +10,7 @@ from __future__ import annotations
 import itertools
 import math
 import operator
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -102,8 +102,7 @@ class Imu:
         self._yaw_drift_step = self.YAW_DRIFT * math.sqrt(self.period)
         self._gyro_drift_step = self.GYRO_DRIFT * math.sqrt(self.period)
         self.next_time = 0.0
-        self._normals: list[float] = []
-        self._next_normal = 0
+        self._rows: Iterator[list[float]] = iter(())
         self.cov_orientation = self._cov(self.yaw_std ** 2 or 1e-6, 1e-6)
         self.cov_gyro = self._cov(self.gyro_std ** 2, 1e-6) if self.gyro_std else \
             self._unavailable()
@@ -128,13 +127,13 @@ class Imu:
         return time + 1e-12 >= self.next_time
 
     def _draws(self) -> list[float]:
-        """Seven standard normal draws, taken from a block drawn ahead (fewer rng calls)."""
-        i = self._next_normal
-        if i + 7 > len(self._normals):
-            self._normals = self.rng.standard_normal(7 * 256).tolist()
-            i = 0
-        self._next_normal = i + 7
-        return self._normals[i:i + 7]
+        """Seven standard normal draws, taken from a block drawn ahead (fewer rng calls): the
+        block's rows of seven, in the order drawn."""
+        draws = next(self._rows, None)
+        if draws is None:
+            self._rows = iter(self.rng.standard_normal(7 * 256).reshape(256, 7).tolist())
+            draws = next(self._rows)
+        return draws
 
     def measure(self, time: float, yaw: float, yaw_rate: float, yaw_accel: float,
                 accel_body: tuple[float, float], header: msgs.Header | None = None
@@ -273,13 +272,15 @@ class Lidar:
         ranges32.flags.writeable = intensities.flags.writeable = False  # handed over
         return self._message(ranges32, intensities)
 
-    def _message(self, ranges32: NDArray[np.float32], intensities: NDArray[np.float32]
-                 ) -> msgs.LaserScan:
-        """The scan's message (read-only float32 ``ranges32`` and ``intensities``), and the
-        next scan's start."""
+    def _message(self, ranges32: NDArray[np.float32], intensities: NDArray[np.float32],
+                 header: msgs.Header | None = None) -> msgs.LaserScan:
+        """The scan's message (read-only float32 ``ranges32`` and ``intensities``; ``header``
+        when the caller has it: stamped ``scan_start``, in ``frame_id``), and the next
+        scan's start."""
+        if header is None:
+            header = _header(stamp_of(self.scan_start), self.frame_id)
         # every field is already normal (float32-rounded numbers, read-only float32 arrays)
-        scan = _laser_scan(_header(stamp_of(self.scan_start), self.frame_id),
-                           *self._fields32, ranges32, intensities)
+        scan = _laser_scan(header, *self._fields32, ranges32, intensities)
         self.scan_start += 1.0 / self.rate
         return scan
 
@@ -352,13 +353,18 @@ def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatAr
         first._circles(circles))
     ranges.flags.writeable = ranges32.flags.writeable = intensities.flags.writeable = False
     scans = []
+    headers: dict[tuple[float, str], msgs.Header] = {}   # shared (messages are immutable)
     for k, lidar in enumerate(lidars):
         a, b = int(beams_at[k]), int(beams_at[k + 1])
         # keep the last step: the next scan's first beams may fall inside it
         lidar._times, lidar._poses = lidar._times[-2:], lidar._poses[-2:]
         lidar._people = lidar._people[-1:]
         lidar.last_ranges = ranges[a:b]
-        scans.append(lidar._message(ranges32[a:b], intensities[a:b]))
+        key = (lidar.scan_start, lidar.frame_id)
+        header = headers.get(key)
+        if header is None:
+            header = headers[key] = _header(stamp_of(lidar.scan_start), lidar.frame_id)
+        scans.append(lidar._message(ranges32[a:b], intensities[a:b], header))
     return scans
 
 

@@ -195,6 +195,8 @@ class _Robot:
     """(right, left) wheels' y in base_link [m]."""
     oil_force: float = 0.0
     """[N] a wheel's traction on oil."""
+    oil_near: tuple[tuple[float, float, float, float], ...] = ()
+    """The world's oil patches (x0, y0, x1, y1) [m] grown by the wheels' reach."""
 
     @property
     def topics(self) -> tuple[str, str, str]:
@@ -483,6 +485,11 @@ class Simulation:
         robot.radius_factors = tuple(1.0 + e for e in ph.wheel_radius_errors)
         robot.wheel_points = tuple((ax, ay + f * d.wheel_separation) for f in (-0.5, 0.5))
         robot.oil_force = ph.oil_friction / ph.friction * traction
+        # the oil patches grown by how far a wheel is from the body's origin (and a
+        # micrometre for rounding): a body outside all of them has no wheel on oil
+        reach = max(math.hypot(x, y) for x, y in robot.wheel_points) + 1e-6
+        robot.oil_near = tuple((x0 - reach, y0 - reach, x1 + reach, y1 + reach)
+                               for x0, y0, x1, y1 in self.world._oil_rects)
         if self._controller_factory is not None:
             robot.controllers = [self._controller_factory(), self._controller_factory()]
         return robot
@@ -905,6 +912,14 @@ class Simulation:
                 position = _body_position(cp_body)
                 px, py = position.x, position.y
                 on_oil = r.on_oil
+                if not (on_oil[0] or on_oil[1]):
+                    # off the oil, and no wheel can be on it (each wheel is within
+                    # r.wheel_reach of the body's origin): nothing changes
+                    for x0, y0, x1, y1 in r.oil_near:
+                        if x0 <= px <= x1 and y0 <= py <= y1:
+                            break
+                    else:
+                        continue
                 for k in (0, 1):
                     x, y = r.wheel_points[k]
                     wx, wy = px + c * x - s * y, py + s * x + c * y
