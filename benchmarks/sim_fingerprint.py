@@ -1,7 +1,7 @@
 """The simulator's outputs, bit for bit, as one SHA-256 per scene: the check that a speed-up
 changed nothing.
 
-Six scenes run for a few simulated seconds under a fixed schedule of commands (forward,
+Eight scenes run for a few simulated seconds under a fixed schedule of commands (forward,
 turning, reversing, wheel-speed commands; the robots meet walls, people and each other):
 
 - ``office-heavy``: the heavy Uiabot configuration (360-beam lidar at 10 Hz, the IMU at
@@ -11,7 +11,11 @@ turning, reversing, wheel-speed commands; the robots meet walls, people and each
 - ``aisle-slip``: the Uiabot in the aisle with wheel-slip noise and worn tyres, two people;
 - ``pillars-eddie``: Eddie (the Kinect row) among the pillars, three people;
 - ``crowd``: 20 Uiabots with 360-beam lidars at 10 Hz among 20 people in the square world
-  (``benchmarks/bench_sim_vs_irsim.py``'s crowd).
+  (``benchmarks/bench_sim_vs_irsim.py``'s crowd);
+- ``mixed``: two Uiabots, the IGV and Eddie in the office among six people, every lidar at
+  10 Hz (their scans due together, each with its own beams, timing, noise and dropouts);
+- ``mixed-default``: the IGV, a Uiabot and Eddie with their own lidar rates among four people
+  (scans due together now and then, from different steps).
 
 Each digest covers, every physics step: every message (topic, type, every field: floats by
 their exact bits, arrays by dtype, shape and bytes, strings, the Python type of each
@@ -153,6 +157,10 @@ SCENES: dict[str, tuple[Callable[[], Simulation], float]] = {
         physics=Physics(slip_variance=2e-4, wheel_radius_errors=(0.004, -0.003))), 20.0),
     "pillars-eddie": (lambda: Simulation("pillars", "eddie", seed=5, people=3), 20.0),
     "crowd": (_crowd, 10.0),
+    "mixed": (lambda: Simulation("office", ["uiabot", "igv", "eddie", "uiabot"], seed=6,
+                                 people=6, lidar_rate=10.0), 10.0),
+    "mixed-default": (lambda: Simulation("office", ["igv", "uiabot", "eddie"], seed=7,
+                                         people=4), 10.0),
 }
 
 

@@ -310,7 +310,7 @@ _same = operator.is_
 _chain = itertools.chain.from_iterable
 _scan_parameters = operator.attrgetter(
     "time_increment", "beams", "_mount_x", "_mount_y", "_angle0", "increment", "range_min",
-    "range_max", "dropout")
+    "range_max", "dropout", "noise_std")
 
 
 def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatArray
@@ -328,34 +328,38 @@ def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatAr
             lidar._times == times and len(lidar._people) == len(people) and
             all(map(_same, lidar._people, people)) for lidar in lidars[1:]):
         return [lidar._finish(segments, circles) for lidar in lidars]
-    # each lidar's draws from its own generator, in the order _finish takes them
-    noise: list[FloatArray] = []
-    drops: list[FloatArray] = []
-    noise_at, drops_at = [0], [0]
-    for lidar in lidars:
-        if lidar.noise_std:
-            noise.append(lidar.rng.normal(0.0, lidar.noise_std, lidar.beams))
-        noise_at.append(noise_at[-1] + (lidar.beams if lidar.noise_std else 0))
-        if lidar.dropout:
-            drops.append(lidar.rng.random(lidar.beams))
-        drops_at.append(drops_at[-1] + (lidar.beams if lidar.dropout else 0))
-    beams_at = np.cumsum([0] + [lidar.beams for lidar in lidars])
+    # each lidar's draws from its own generator, in the order _finish takes them, straight
+    # into one array: its noise as standard normals (rng.normal(0, sd) is 0.0 + sd * those,
+    # which _scan_many computes), then its dropout draws; none where it has none
+    parameters = [_scan_parameters(lidar) for lidar in lidars]
+    beams_at = [0]
+    draws_at = [0]
+    for lidar, p in zip(lidars, parameters, strict=True):
+        beams_at.append(beams_at[-1] + lidar.beams)
+        draws_at.append(draws_at[-1] + (lidar.beams if p[9] else 0) +
+                        (lidar.beams if p[8] else 0))
+    draws = np.empty(draws_at[-1])
+    for k, (lidar, p) in enumerate(zip(lidars, parameters, strict=True)):
+        a = draws_at[k]
+        if p[9]:
+            lidar.rng.standard_normal(out=draws[a:a + lidar.beams])
+            a += lidar.beams
+        if p[8]:
+            lidar.rng.random(out=draws[a:a + lidar.beams])
     ranges, ranges32, intensities = _scan_many(
         np.array(times), np.fromiter(_chain(_chain(lidar._poses for lidar in lidars)),
                                      np.float64, 3 * len(lidars) * len(times)
                                      ).reshape(len(lidars), len(times), 3),
         np.array(people) if people[0].size else _NO_PEOPLE,
         np.array([lidar.scan_start for lidar in lidars]),
-        np.array([_scan_parameters(lidar) for lidar in lidars], dtype=np.float64), beams_at,
-        np.concatenate(noise) if noise else _NO_DRAWS, np.array(noise_at),
-        np.concatenate(drops) if drops else _NO_DRAWS, np.array(drops_at),
-        np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4),
+        np.array(parameters, dtype=np.float64), np.array(beams_at), draws,
+        np.array(draws_at), np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4),
         first._circles(circles))
     ranges.flags.writeable = ranges32.flags.writeable = intensities.flags.writeable = False
     scans = []
     headers: dict[tuple[float, str], msgs.Header] = {}   # shared (messages are immutable)
     for k, lidar in enumerate(lidars):
-        a, b = int(beams_at[k]), int(beams_at[k + 1])
+        a, b = beams_at[k], beams_at[k + 1]
         # keep the last step: the next scan's first beams may fall inside it
         lidar._times, lidar._poses = lidar._times[-2:], lidar._poses[-2:]
         lidar._people = lidar._people[-1:]
@@ -370,15 +374,14 @@ def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatAr
 
 @njit(cache=True)
 def _scan_many(times: FloatArray, poses: FloatArray, people: FloatArray, starts: FloatArray,
-               parameters: FloatArray, beams_at: NDArray[np.int64], noise: FloatArray,
-               noise_at: NDArray[np.int64], drops: FloatArray, drops_at: NDArray[np.int64],
-               segments: FloatArray, circles: FloatArray
+               parameters: FloatArray, beams_at: NDArray[np.int64], draws: FloatArray,
+               draws_at: NDArray[np.int64], segments: FloatArray, circles: FloatArray
                ) -> tuple[FloatArray, NDArray[np.float32],
                           NDArray[np.float32]]:  # pragma: no cover - compiled by numba
     """Every lidar's scan from the steps they all recorded: ``poses`` (L, S + 1, 3), one
-    row of :data:`_scan_parameters` and one start time per lidar, their noise and dropout
-    draws one after the other (``noise_at``, ``drops_at``: where each lidar's begin and
-    end; none for a lidar without); the float64 ranges, the float32 ranges and the
+    row of :data:`_scan_parameters` and one start time per lidar, each lidar's draws one
+    after the other from ``draws_at[k]`` (its noise's standard normals, then its dropout
+    draws; none for what it lacks); the float64 ranges, the float32 ranges and the
     intensities of all scans one after the other (``beams_at``)."""
     total = beams_at[-1]
     out = np.empty(total)
@@ -386,14 +389,19 @@ def _scan_many(times: FloatArray, poses: FloatArray, people: FloatArray, starts:
     intensities = np.empty(total, dtype=np.float32)
     for k in range(poses.shape[0]):
         p = parameters[k]
-        n, range_max = int(p[1]), p[7]
+        n, range_max, noise_std, dropout = int(p[1]), p[7], p[9], p[8]
         ox, oy, angles, step = _beam_geometry(times, poses[k], starts[k], p[0], n, p[2], p[3],
                                               p[4], p[5])
         ranges = _cast_scan(ox, oy, angles, _walls_near(segments, ox[0], oy[0],
                                                         range_max + 2.0),
                             circles, people, step, range_max)
-        r32, i32 = _measure(ranges, noise[noise_at[k]:noise_at[k + 1]],
-                            drops[drops_at[k]:drops_at[k + 1]], p[8], p[6], range_max)
+        d = draws_at[k]
+        noise = np.empty(n if noise_std else 0)
+        for i in range(noise.shape[0]):
+            noise[i] = 0.0 + noise_std * draws[d + i]   # as rng.normal(0.0, noise_std)
+        d += noise.shape[0]
+        r32, i32 = _measure(ranges, noise, draws[d:d + (n if dropout else 0)], dropout, p[6],
+                            range_max)
         a = beams_at[k]
         out[a:a + n] = ranges
         out32[a:a + n] = r32
