@@ -64,6 +64,8 @@ _set_body_velocity = _chipmunk.cpBodySetVelocity
 _space_step = _chipmunk.cpSpaceStep
 _header = msgs.Header.trusted_builder()
 _joint_state = msgs.JointState.trusted_builder()
+_PI, _TWO_PI = math.pi, 2.0 * math.pi
+_cos, _sin = math.cos, math.sin
 
 
 @dataclass(frozen=True)
@@ -937,24 +939,26 @@ class Simulation:
         cp_body = r.cp_body
         angle = _body_angle(cp_body)
         # geometry.wrap_angle's arithmetic on a float
-        yaw = (angle + math.pi) % (2.0 * math.pi) - math.pi
-        if yaw >= math.pi:
-            yaw = yaw - 2.0 * math.pi
+        yaw = (angle + _PI) % _TWO_PI - _PI
+        if yaw >= _PI:
+            yaw = yaw - _TWO_PI
         velocity = _body_velocity(cp_body)
         vx, vy = velocity.x, velocity.y
-        c, s = math.cos(angle), math.sin(angle)
+        c, s = _cos(angle), _sin(angle)
         v_forward = c * vx + s * vy
         w = _body_angular_velocity(cp_body)
         if dt:
             # acceleration in base_link: the change of the world velocity, rotated in
-            ax_w = (vx - r.world_velocity[0]) / dt
-            ay_w = (vy - r.world_velocity[1]) / dt
+            wvx, wvy = r.world_velocity
+            ax_w = (vx - wvx) / dt
+            ay_w = (vy - wvy) / dt
             r.accel = (c * ax_w + s * ay_w, -s * ax_w + c * ay_w)
             r.yaw_accel = (w - r.yaw_rate) / dt
         r.world_velocity = (vx, vy)
         position = _body_position(cp_body)
-        r.x, r.y, r.yaw, r.yaw_rate, r.forward_speed = position.x, position.y, yaw, w, v_forward
-        r.xy_yaw = (position.x, position.y, yaw)
+        x, y = position.x, position.y
+        r.x, r.y, r.yaw, r.yaw_rate, r.forward_speed = x, y, yaw, w, v_forward
+        r.xy_yaw = (x, y, yaw)
 
     def step(self, cmd: Command | Mapping[int, Command] = None) -> list[tuple[str, Any]]:
         """Advance by one physics step (``physics.dt``).
@@ -994,16 +998,16 @@ class Simulation:
             if r.lidar is not None:
                 scan = r.lidar.collect(t0, t1, before[0], r.xy_yaw, discs, segments, circles)
                 if scan is not None:
-                    out.append((r.topics[0], scan))
+                    out.append((r._topics[0], scan))
             imu = r.imu
             if imu is not None and t1 + 1e-12 >= imu.next_time:
                 header = self._header(headers, imu.frame_id)
-                out.append((r.topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
+                out.append((r._topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
                                                      r.accel, header)))
             if t1 + 1e-12 >= r.next_joint_state:
                 r.next_joint_state += 0.02
                 header = headers.get("") or self._header(headers, "")
-                out.append((r.topics[2], self._joint_state(r, header)))
+                out.append((r._topics[2], self._joint_state(r, header)))
             return out
         # several: the scans and joint states due now made together after the loop, into
         # their places in out (the scans in one compiled call when they can)
@@ -1014,16 +1018,16 @@ class Simulation:
             lidar = r.lidar
             if lidar is not None and lidar.record(t0, t1, before[i], r.xy_yaw, discs):
                 due.append((len(out), lidar))
-                out.append((r.topics[0], None))
+                out.append((r._topics[0], None))
             imu = r.imu
             if imu is not None and t1 + 1e-12 >= imu.next_time:
                 header = headers.get(imu.frame_id) or self._header(headers, imu.frame_id)
-                out.append((r.topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
+                out.append((r._topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
                                                      r.accel, header)))
             if t1 + 1e-12 >= r.next_joint_state:
                 r.next_joint_state += 0.02
                 joints_due.append((len(out), r))
-                out.append((r.topics[2], None))
+                out.append((r._topics[2], None))
         if due:
             scans = finish_scans([lidar for _, lidar in due], segments, circles)
             for (k, _), scan in zip(due, scans, strict=True):
