@@ -319,9 +319,10 @@ def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatAr
     order: what :meth:`Lidar.collect` would have returned for each.
 
     Lidars that recorded the same steps (the same times and the same people's discs: robots
-    of one simulation whose scans started together) are cast in one compiled call — beam
-    geometry, walls within reach, casting, noise, dropouts and the float32 ranges of every
-    scan — with the same arithmetic as each lidar's own; any other set, one by one."""
+    of one simulation whose scans started together) are made in two compiled calls — every
+    scan's beam geometry, then, with each lidar's walls within reach from its own cache,
+    every scan's casting, noise, dropouts and float32 ranges — with the same arithmetic as
+    each lidar's own; any other set, one by one."""
     first = lidars[0]
     times, people = first._times, first._people
     if len(lidars) == 1 or not all(
@@ -330,7 +331,7 @@ def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatAr
         return [lidar._finish(segments, circles) for lidar in lidars]
     # each lidar's draws from its own generator, in the order _finish takes them, straight
     # into one array: its noise as standard normals (rng.normal(0, sd) is 0.0 + sd * those,
-    # which _scan_many computes), then its dropout draws; none where it has none
+    # which _cast_many computes), then its dropout draws; none where it has none
     parameters = [_scan_parameters(lidar) for lidar in lidars]
     beams_at = [0]
     draws_at = [0]
@@ -346,15 +347,20 @@ def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatAr
             a += lidar.beams
         if p[8]:
             lidar.rng.random(out=draws[a:a + lidar.beams])
-    ranges, ranges32, intensities = _scan_many(
+    rows, at = np.array(parameters, dtype=np.float64), np.array(beams_at)
+    ox, oy, angles, step = _geometry_many(
         np.array(times), np.fromiter(_chain(_chain(lidar._poses for lidar in lidars)),
                                      np.float64, 3 * len(lidars) * len(times)
                                      ).reshape(len(lidars), len(times), 3),
-        np.array(people) if people[0].size else _NO_PEOPLE,
-        np.array([lidar.scan_start for lidar in lidars]),
-        np.array(parameters, dtype=np.float64), np.array(beams_at), draws,
-        np.array(draws_at), np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 4),
-        first._circles(circles))
+        np.array([lidar.scan_start for lidar in lidars]), rows, at)
+    # each lidar's walls within reach, from its own cache, as _finish takes them
+    near = [lidar._segments_near(segments, float(ox[a]), float(oy[a]))
+            for lidar, a in zip(lidars, beams_at, strict=False)]
+    near_at = np.cumsum([0] + [len(walls) for walls in near])
+    ranges, ranges32, intensities = _cast_many(
+        ox, oy, angles, step, rows, at, np.concatenate(near), near_at,
+        first._circles(circles), np.array(people) if people[0].size else _NO_PEOPLE, draws,
+        np.array(draws_at))
     ranges.flags.writeable = ranges32.flags.writeable = intensities.flags.writeable = False
     scans = []
     headers: dict[tuple[float, str], msgs.Header] = {}   # shared (messages are immutable)
@@ -373,28 +379,45 @@ def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatAr
 
 
 @njit(cache=True)
-def _scan_many(times: FloatArray, poses: FloatArray, people: FloatArray, starts: FloatArray,
-               parameters: FloatArray, beams_at: NDArray[np.int64], draws: FloatArray,
-               draws_at: NDArray[np.int64], segments: FloatArray, circles: FloatArray
+def _geometry_many(times: FloatArray, poses: FloatArray, starts: FloatArray,
+                   parameters: FloatArray, beams_at: NDArray[np.int64]
+                   ) -> tuple[FloatArray, FloatArray, FloatArray,
+                              NDArray[np.int64]]:  # pragma: no cover - compiled by numba
+    """Every lidar's beams (:func:`sim.raycast.beam_geometry`) from the steps they all
+    recorded: ``poses`` (L, S + 1, 3), one row of :data:`_scan_parameters` and one start time
+    per lidar; their origins, angles and steps one lidar after the other (``beams_at``)."""
+    total = beams_at[-1]
+    ox, oy, angles = np.empty(total), np.empty(total), np.empty(total)
+    step = np.empty(total, dtype=np.int64)
+    for k in range(poses.shape[0]):
+        p = parameters[k]
+        a, n = beams_at[k], int(p[1])
+        ox[a:a + n], oy[a:a + n], angles[a:a + n], step[a:a + n] = _beam_geometry(
+            times, poses[k], starts[k], p[0], n, p[2], p[3], p[4], p[5])
+    return ox, oy, angles, step
+
+
+@njit(cache=True)
+def _cast_many(ox: FloatArray, oy: FloatArray, angles: FloatArray, step: NDArray[np.int64],
+               parameters: FloatArray, beams_at: NDArray[np.int64], near: FloatArray,
+               near_at: NDArray[np.int64], circles: FloatArray, people: FloatArray,
+               draws: FloatArray, draws_at: NDArray[np.int64]
                ) -> tuple[FloatArray, NDArray[np.float32],
                           NDArray[np.float32]]:  # pragma: no cover - compiled by numba
-    """Every lidar's scan from the steps they all recorded: ``poses`` (L, S + 1, 3), one
-    row of :data:`_scan_parameters` and one start time per lidar, each lidar's draws one
-    after the other from ``draws_at[k]`` (its noise's standard normals, then its dropout
-    draws; none for what it lacks); the float64 ranges, the float32 ranges and the
-    intensities of all scans one after the other (``beams_at``)."""
+    """Every lidar's beams cast against its walls (``near[near_at[k]:near_at[k + 1]]``), the
+    world's discs and the people, then measured with its draws (from ``draws_at[k]``: its
+    noise's standard normals, then its dropout draws; none for what it lacks): the float64
+    ranges, the float32 ranges and the intensities of all scans one after the other."""
     total = beams_at[-1]
     out = np.empty(total)
     out32 = np.empty(total, dtype=np.float32)
     intensities = np.empty(total, dtype=np.float32)
-    for k in range(poses.shape[0]):
+    for k in range(beams_at.shape[0] - 1):
         p = parameters[k]
-        n, range_max, noise_std, dropout = int(p[1]), p[7], p[9], p[8]
-        ox, oy, angles, step = _beam_geometry(times, poses[k], starts[k], p[0], n, p[2], p[3],
-                                              p[4], p[5])
-        ranges = _cast_scan(ox, oy, angles, _walls_near(segments, ox[0], oy[0],
-                                                        range_max + 2.0),
-                            circles, people, step, range_max)
+        a, n, range_max, noise_std, dropout = beams_at[k], int(p[1]), p[7], p[9], p[8]
+        b = a + n
+        ranges = _cast_scan(ox[a:b], oy[a:b], angles[a:b], near[near_at[k]:near_at[k + 1]],
+                            circles, people, step[a:b], range_max)
         d = draws_at[k]
         noise = np.empty(n if noise_std else 0)
         for i in range(noise.shape[0]):
@@ -402,23 +425,7 @@ def _scan_many(times: FloatArray, poses: FloatArray, people: FloatArray, starts:
         d += noise.shape[0]
         r32, i32 = _measure(ranges, noise, draws[d:d + (n if dropout else 0)], dropout, p[6],
                             range_max)
-        a = beams_at[k]
-        out[a:a + n] = ranges
-        out32[a:a + n] = r32
-        intensities[a:a + n] = i32
+        out[a:b] = ranges
+        out32[a:b] = r32
+        intensities[a:b] = i32
     return out, out32, intensities
-
-
-@njit(cache=True)
-def _walls_near(segments: FloatArray, x: float, y: float, reach: float
-                ) -> FloatArray:  # pragma: no cover - compiled by numba
-    """:func:`sim.raycast.segments_near`'s bounding-box cull, compiled. Which walls the
-    caster is given never changes a range, as long as none within reach is left out: a
-    wall out of the box is hit, if at all, only beyond ``range_max``, where every beam
-    reports ``inf`` anyway."""
-    keep = np.empty(segments.shape[0], dtype=np.bool_)
-    for j in range(segments.shape[0]):
-        x1, y1, x2, y2 = segments[j, 0], segments[j, 1], segments[j, 2], segments[j, 3]
-        keep[j] = (min(x1, x2) <= x + reach and min(y1, y2) <= y + reach and
-                   max(x1, x2) >= x - reach and max(y1, y2) >= y - reach)
-    return segments[keep]

@@ -76,13 +76,13 @@ def test_scans_and_joint_states_made_together_are_the_ones_made_alone(monkeypatc
 def test_the_scans_are_cast_in_one_call_when_the_lidars_share_their_steps(monkeypatch):
     """The test above compares something: the eight Uiabots' scans are cast together."""
     calls = []
-    original = sensors._scan_many
+    original = sensors._cast_many
 
     def counting(*args):
-        calls.append(args[1].shape[0])
+        calls.append(args[4].shape[0])     # one row of parameters per lidar
         return original(*args)
 
-    monkeypatch.setattr(sensors, "_scan_many", counting)
+    monkeypatch.setattr(sensors, "_cast_many", counting)
     sim = scenes()["square"]()
     sim.run(0.5, twist(0.3))
     assert calls == [8] * 5
