@@ -21,15 +21,19 @@ Each digest covers, every physics step: every message (topic, type, every field:
 their exact bits, arrays by dtype, shape and bytes, strings, the Python type of each
 scalar), every robot's pose, velocity, wheel speeds and angles, encoder counts and ground
 truth, every person's position, and the collisions recorded; with each scan, the float64
-ranges it was made from. Run it on two versions of the
-code and compare the lines (``--save FILE`` writes them, ``--check FILE`` compares against a
-saved file and exits 1 on any difference)::
+ranges it was made from.
 
-    python benchmarks/sim_fingerprint.py --save before.txt     # on the old code
-    python benchmarks/sim_fingerprint.py --check before.txt    # on the new code
+Run it on two versions of the code and compare (``--save FILE`` writes the lines,
+``--check FILE`` compares with saved ones and exits 1 on any difference). The old code need
+not have this script: put its checkout (its ``sim/``, and ``kit/``) first on the path and run
+this file from another folder::
+
+    git worktree add /tmp/old main
+    cd /tmp && PYTHONPATH=/tmp/old python CHECKOUT/benchmarks/sim_fingerprint.py --save before.txt
+    cd CHECKOUT && python benchmarks/sim_fingerprint.py --check /tmp/before.txt
 
 ``--seconds`` scales every scene's length (default 1: 20-30 s simulated per scene, 10 s for
-the crowd; about 15 s of CPU in all, once numba's caches are warm).
+the crowd; about 5 s of CPU in all once numba's caches are warm, a minute the first time).
 """
 
 from __future__ import annotations
