@@ -12,7 +12,13 @@ each round's real-time factors is reported, with their median, in wall time and 
 Then 20 Uiabots with 360-beam lidars at 10 Hz among 20 people in the square world (the
 simulator issue's crowd), the kit alone.
 
+``--against DIR`` (ir-sim not needed): this checkout's simulator against another checkout's
+(``DIR`` holds its ``kit/`` and ``sim/``, e.g. ``git worktree add DIR main``), the crowd and
+the heavy configuration, each round one fresh process per checkout in turn (the order swapped
+every other round), CPU time; the real-time factors per round and the ratios' medians.
+
 ``python benchmarks/bench_sim_vs_irsim.py [--seconds 10] [--rounds 7] [--no-crowd]``
+``python benchmarks/bench_sim_vs_irsim.py --against DIR [--rounds 7]``
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ import contextlib
 import io
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -87,12 +94,73 @@ def run_irsim(world: Path, seconds: float) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
+def run_in(root: Path | None, which: str, seconds: float) -> float:
+    """The real-time factor in CPU time of ``which`` (``"crowd"`` or ``"heavy"``) over
+    ``seconds`` simulated, in a fresh process on the checkout at ``root`` (None: this one),
+    after a warm-up run (numba's caches loaded)."""
+    code = (f"import runpy; m = runpy.run_path({str(Path(__file__).resolve())!r}); "
+            f"m['run_kit'](m[{which!r}], 0.3); "
+            f"print({seconds!r} / m['run_kit'](m[{which!r}], {seconds!r})[1])")
+    env = dict(os.environ)
+    if root is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(root), env.get("PYTHONPATH", "")])
+    with tempfile.TemporaryDirectory() as cwd:   # not this checkout's folder first on the path
+        done = subprocess.run([sys.executable, "-c", code], env=env, cwd=cwd,
+                              capture_output=True, text=True)
+    if done.returncode != 0:
+        last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        raise RuntimeError(f"the {which} run on {root or 'this checkout'} failed: {last}")
+    return float(done.stdout.split()[-1])
+
+
+def against(old: Path, rounds: int) -> int:
+    """This checkout against the one at ``old``, alternately: the crowd (3 s simulated) and
+    the heavy configuration (10 s simulated)."""
+    if not (old / "sim" / "simulation.py").is_file():
+        print(f"{old} holds no checkout of the kit (no sim/simulation.py)", file=sys.stderr)
+        return 2
+    print(f"load average at start: {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores")
+    print(f"{rounds} rounds, CPU time, one fresh process per run; old: {old}")
+    print(f"{'round':>5s} {'crowd old':>10s} {'new':>7s} {'ratio':>6s}   "
+          f"{'heavy old':>10s} {'new':>7s} {'ratio':>6s}")
+    ratios: dict[str, list[float]] = {"crowd": [], "heavy": []}
+    factors: dict[str, list[float]] = {"crowd": [], "heavy": []}
+    for i in range(rounds):
+        row = []
+        for which, seconds in (("crowd", 3.0), ("heavy", 10.0)):
+            order: list[Path | None] = [old, None] if i % 2 == 0 else [None, old]
+            got = {str(root): run_in(root, which, seconds) for root in order}
+            new_factor, old_factor = got["None"], got[str(old)]
+            ratios[which].append(new_factor / old_factor)
+            factors[which].append(new_factor)
+            row.append(f"{old_factor:9.1f}x {new_factor:6.1f}x {new_factor / old_factor:5.2f}x")
+        print(f"{i + 1:5d} " + "   ".join(row))
+    for which in ("crowd", "heavy"):
+        print(f"{which}: new {statistics.median(factors[which]):.1f}x real time in CPU time "
+              f"(median; {min(factors[which]):.1f}-{max(factors[which]):.1f}), new / old "
+              f"{statistics.median(ratios[which]):.2f}x (median; "
+              f"{min(ratios[which]):.2f}-{max(ratios[which]):.2f})")
+    print(f"load average at end: {os.getloadavg()[0]:.1f}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=10.0, help="simulated per run")
     parser.add_argument("--rounds", type=int, default=7)
     parser.add_argument("--no-crowd", action="store_true")
+    parser.add_argument("--against", type=Path, metavar="DIR",
+                        help="another checkout's simulator to run alternately with this one")
     args = parser.parse_args(argv)
+    if args.rounds < 1:
+        print(f"--rounds must be at least 1; got {args.rounds}", file=sys.stderr)
+        return 2
+    if args.against is not None:
+        try:
+            return against(args.against, args.rounds)
+        except RuntimeError as e:
+            print(e, file=sys.stderr)
+            return 1
     try:
         with contextlib.redirect_stdout(io.StringIO()):
             import irsim

@@ -94,6 +94,59 @@ def cast_rays(origins: FloatArray, angles: FloatArray, segments: FloatArray,
     return best
 
 
+@njit(cache=True)
+def _people_in_view(ox: FloatArray, oy: FloatArray, angles: FloatArray, first: int, end: int,
+                    discs: FloatArray, chosen: NDArray[np.int64]
+                    ) -> int:  # pragma: no cover - compiled by numba
+    """Which of ``discs`` (P, 3) the beams ``first:end`` (taken in one physics step) can meet:
+    their indices into ``chosen``, in order; returns how many.
+
+    The beams start within ``spread`` of the first one's origin and point between the least
+    and the greatest of their angles: every point they reach lies within ``spread`` of the
+    wedge of those directions from the first origin. A disc farther than its radius and
+    ``spread`` (and a micrometre, far above the arithmetic's rounding) from that wedge meets
+    none of them: its beams would find no hit at all (the caster's discriminant is negative
+    by about ``2 radius`` micrometres), so leaving it out changes no range. Wedges of a
+    quarter turn or more (a whole scan at one instant) keep every disc."""
+    x0, y0 = ox[first], oy[first]
+    low = high = angles[first]
+    spread2 = 0.0
+    for i in range(first + 1, end):
+        a = angles[i]
+        if a < low:
+            low = a
+        if a > high:
+            high = a
+        dx, dy = ox[i] - x0, oy[i] - y0
+        d2 = dx * dx + dy * dy
+        if d2 > spread2:
+            spread2 = d2
+    n = 0
+    if high - low >= 0.5 * np.pi:
+        for k in range(discs.shape[0]):
+            chosen[n] = k
+            n += 1
+        return n
+    spread = np.sqrt(spread2) + 1e-6
+    c1, s1, c2, s2 = np.cos(low), np.sin(low), np.cos(high), np.sin(high)
+    for k in range(discs.shape[0]):
+        qx, qy = discs[k, 0] - x0, discs[k, 1] - y0
+        near = discs[k, 2] + spread
+        across1 = c1 * qy - s1 * qx            # > 0: left of the wedge's first edge
+        across2 = c2 * qy - s2 * qx            # < 0: right of its last edge
+        if across1 >= 0.0 and across2 <= 0.0:
+            inside = True                      # within the wedge's angles
+        else:
+            along1, along2 = c1 * qx + s1 * qy, c2 * qx + s2 * qy
+            d1 = abs(across1) if along1 > 0.0 else np.sqrt(qx * qx + qy * qy)
+            d2 = abs(across2) if along2 > 0.0 else np.sqrt(qx * qx + qy * qy)
+            inside = min(d1, d2) <= near
+        if inside:
+            chosen[n] = k
+            n += 1
+    return n
+
+
 @njit(cache=True, fastmath=False)
 def _cast_scan(ox: FloatArray, oy: FloatArray, angles: FloatArray, segments: FloatArray,
                circles: FloatArray, people: FloatArray, people_step: NDArray[np.int64],
@@ -104,7 +157,19 @@ def _cast_scan(ox: FloatArray, oy: FloatArray, angles: FloatArray, segments: Flo
     # each segment's start and direction, as the loop below would compute them for every beam
     ax_, ay_ = segments[:, 0].copy(), segments[:, 1].copy()
     ex_, ey_ = segments[:, 2] - ax_, segments[:, 3] - ay_
+    n_circles, n_people = circles.shape[0], people.shape[1]
+    # the people the beams of one physics step can meet (people_step is non-decreasing)
+    chosen = np.empty(n_people, dtype=np.int64)
+    n_chosen = 0
+    block_end = 0
+    s = 0
     for i in range(n):
+        if i == block_end and n_people:
+            s = people_step[i]
+            block_end = i + 1
+            while block_end < n and people_step[block_end] == s:
+                block_end += 1
+            n_chosen = _people_in_view(ox, oy, angles, i, block_end, people[s], chosen)
         px, py = ox[i], oy[i]
         dx, dy = np.cos(angles[i]), np.sin(angles[i])
         best = np.inf
@@ -120,11 +185,11 @@ def _cast_scan(ox: FloatArray, oy: FloatArray, angles: FloatArray, segments: Flo
             u = (wx * dy - wy * dx) / denom
             if 0.0 <= u <= 1.0:
                 best = t
-        for k in range(circles.shape[0] + people.shape[1]):
-            if k < circles.shape[0]:
+        for k in range(n_circles + n_chosen):
+            if k < n_circles:
                 cx, cy, radius = circles[k, 0], circles[k, 1], circles[k, 2]
             else:
-                row = people[people_step[i], k - circles.shape[0]]
+                row = people[s, chosen[k - n_circles]]
                 cx, cy, radius = row[0], row[1], row[2]
             qx, qy = px - cx, py - cy
             q2 = qx * qx + qy * qy

@@ -7,8 +7,10 @@ to walls and people (not glass) with noise and dropouts. Ground truth is never i
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Mapping, Sequence
+import operator
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -18,7 +20,7 @@ from numpy.typing import NDArray
 from kit import msgs
 from sim.raycast import _beam_geometry, _cast_scan, segments_near
 
-__all__ = ["Imu", "Lidar", "encoder_counts", "stamp_of"]
+__all__ = ["Imu", "Lidar", "encoder_counts", "finish_scans", "stamp_of"]
 
 FloatArray = NDArray[np.float64]
 GRAVITY = 9.80665
@@ -100,8 +102,7 @@ class Imu:
         self._yaw_drift_step = self.YAW_DRIFT * math.sqrt(self.period)
         self._gyro_drift_step = self.GYRO_DRIFT * math.sqrt(self.period)
         self.next_time = 0.0
-        self._normals: list[float] = []
-        self._next_normal = 0
+        self._rows: Iterator[list[float]] = iter(())
         self.cov_orientation = self._cov(self.yaw_std ** 2 or 1e-6, 1e-6)
         self.cov_gyro = self._cov(self.gyro_std ** 2, 1e-6) if self.gyro_std else \
             self._unavailable()
@@ -126,13 +127,13 @@ class Imu:
         return time + 1e-12 >= self.next_time
 
     def _draws(self) -> list[float]:
-        """Seven standard normal draws, taken from a block drawn ahead (fewer rng calls)."""
-        i = self._next_normal
-        if i + 7 > len(self._normals):
-            self._normals = self.rng.standard_normal(7 * 256).tolist()
-            i = 0
-        self._next_normal = i + 7
-        return self._normals[i:i + 7]
+        """Seven standard normal draws, taken from a block drawn ahead (fewer rng calls): the
+        block's rows of seven, in the order drawn."""
+        draws = next(self._rows, None)
+        if draws is None:
+            self._rows = iter(self.rng.standard_normal(7 * 256).reshape(256, 7).tolist())
+            draws = next(self._rows)
+        return draws
 
     def measure(self, time: float, yaw: float, yaw_rate: float, yaw_accel: float,
                 accel_body: tuple[float, float], header: msgs.Header | None = None
@@ -230,15 +231,22 @@ class Lidar:
                 ) -> msgs.LaserScan | None:
         """Record one physics step (sensor-carrier poses at ``t0`` and ``t1``, the people's
         discs during it); return a scan once its last beam's time has passed."""
-        if not self._times:
-            self._times.append(t0)
-            self._poses.append(pose0)
-        self._times.append(t1)
-        self._poses.append(pose1)
-        self._people.append(people)
-        if t1 + 1e-12 < self.scan_start + self.time_increment * (self.beams - 1):
+        if not self.record(t0, t1, pose0, pose1, people):
             return None
         return self._finish(segments, circles)
+
+    def record(self, t0: float, t1: float, pose0: Sequence[float], pose1: Sequence[float],
+               people: FloatArray) -> bool:
+        """:meth:`collect`'s recording alone: whether a scan is now due (:func:`finish_scans`
+        makes it, with the other lidars' due in the same step)."""
+        times = self._times
+        if not times:
+            times.append(t0)
+            self._poses.append(pose0)
+        times.append(t1)
+        self._poses.append(pose1)
+        self._people.append(people)
+        return t1 + 1e-12 >= self.scan_start + self.time_increment * (self.beams - 1)
 
     def _finish(self, segments: FloatArray, circles: FloatArray) -> msgs.LaserScan:
         # beam_geometry and cast_scan without their wrappers' conversions: every argument
@@ -262,9 +270,17 @@ class Lidar:
         ranges32, intensities = _measure(ranges, noise, drops, self.dropout, self.range_min,
                                          self.range_max)
         ranges32.flags.writeable = intensities.flags.writeable = False  # handed over
+        return self._message(ranges32, intensities)
+
+    def _message(self, ranges32: NDArray[np.float32], intensities: NDArray[np.float32],
+                 header: msgs.Header | None = None) -> msgs.LaserScan:
+        """The scan's message (read-only float32 ``ranges32`` and ``intensities``; ``header``
+        when the caller has it: stamped ``scan_start``, in ``frame_id``), and the next
+        scan's start."""
+        if header is None:
+            header = _header(stamp_of(self.scan_start), self.frame_id)
         # every field is already normal (float32-rounded numbers, read-only float32 arrays)
-        scan = _laser_scan(_header(stamp_of(self.scan_start), self.frame_id),
-                           *self._fields32, ranges32, intensities)
+        scan = _laser_scan(header, *self._fields32, ranges32, intensities)
         self.scan_start += 1.0 / self.rate
         return scan
 
@@ -288,3 +304,128 @@ class Lidar:
                 dtype=np.float64).reshape(-1, 4)
             self._near = cached = (segments, x, y, near)
         return cached[3]
+
+
+_same = operator.is_
+_chain = itertools.chain.from_iterable
+_scan_parameters = operator.attrgetter(
+    "time_increment", "beams", "_mount_x", "_mount_y", "_angle0", "increment", "range_min",
+    "range_max", "dropout", "noise_std")
+
+
+def finish_scans(lidars: Sequence[Lidar], segments: FloatArray, circles: FloatArray
+                 ) -> list[msgs.LaserScan]:
+    """The scans of ``lidars`` (each :meth:`Lidar.record` said it was due in this step), in
+    order: what :meth:`Lidar.collect` would have returned for each.
+
+    Lidars that recorded the same steps (the same times and the same people's discs: robots
+    of one simulation whose scans started together) are made in two compiled calls — every
+    scan's beam geometry, then, with each lidar's walls within reach from its own cache,
+    every scan's casting, noise, dropouts and float32 ranges — with the same arithmetic as
+    each lidar's own; any other set, one by one."""
+    first = lidars[0]
+    times, people = first._times, first._people
+    if len(lidars) == 1 or not all(
+            lidar._times == times and len(lidar._people) == len(people) and
+            all(map(_same, lidar._people, people)) for lidar in lidars[1:]):
+        return [lidar._finish(segments, circles) for lidar in lidars]
+    # each lidar's draws from its own generator, in the order _finish takes them, straight
+    # into one array: its noise as standard normals (rng.normal(0, sd) is 0.0 + sd * those,
+    # which _cast_many computes), then its dropout draws; none where it has none
+    parameters = [_scan_parameters(lidar) for lidar in lidars]
+    beams_at = [0]
+    draws_at = [0]
+    for lidar, p in zip(lidars, parameters, strict=True):
+        beams_at.append(beams_at[-1] + lidar.beams)
+        draws_at.append(draws_at[-1] + (lidar.beams if p[9] else 0) +
+                        (lidar.beams if p[8] else 0))
+    draws = np.empty(draws_at[-1])
+    for k, (lidar, p) in enumerate(zip(lidars, parameters, strict=True)):
+        a = draws_at[k]
+        if p[9]:
+            lidar.rng.standard_normal(out=draws[a:a + lidar.beams])
+            a += lidar.beams
+        if p[8]:
+            lidar.rng.random(out=draws[a:a + lidar.beams])
+    rows, at = np.array(parameters, dtype=np.float64), np.array(beams_at)
+    ox, oy, angles, step = _geometry_many(
+        np.array(times), np.fromiter(_chain(_chain(lidar._poses for lidar in lidars)),
+                                     np.float64, 3 * len(lidars) * len(times)
+                                     ).reshape(len(lidars), len(times), 3),
+        np.array([lidar.scan_start for lidar in lidars]), rows, at)
+    # each lidar's walls within reach, from its own cache, as _finish takes them
+    near = [lidar._segments_near(segments, float(ox[a]), float(oy[a]))
+            for lidar, a in zip(lidars, beams_at, strict=False)]
+    near_at = np.cumsum([0] + [len(walls) for walls in near])
+    ranges, ranges32, intensities = _cast_many(
+        ox, oy, angles, step, rows, at, np.concatenate(near), near_at,
+        first._circles(circles), np.array(people) if people[0].size else _NO_PEOPLE, draws,
+        np.array(draws_at))
+    ranges.flags.writeable = ranges32.flags.writeable = intensities.flags.writeable = False
+    scans = []
+    headers: dict[tuple[float, str], msgs.Header] = {}   # shared (messages are immutable)
+    for k, lidar in enumerate(lidars):
+        a, b = beams_at[k], beams_at[k + 1]
+        # keep the last step: the next scan's first beams may fall inside it
+        lidar._times, lidar._poses = lidar._times[-2:], lidar._poses[-2:]
+        lidar._people = lidar._people[-1:]
+        lidar.last_ranges = ranges[a:b]
+        key = (lidar.scan_start, lidar.frame_id)
+        header = headers.get(key)
+        if header is None:
+            header = headers[key] = _header(stamp_of(lidar.scan_start), lidar.frame_id)
+        scans.append(lidar._message(ranges32[a:b], intensities[a:b], header))
+    return scans
+
+
+@njit(cache=True)
+def _geometry_many(times: FloatArray, poses: FloatArray, starts: FloatArray,
+                   parameters: FloatArray, beams_at: NDArray[np.int64]
+                   ) -> tuple[FloatArray, FloatArray, FloatArray,
+                              NDArray[np.int64]]:  # pragma: no cover - compiled by numba
+    """Every lidar's beams (:func:`sim.raycast.beam_geometry`) from the steps they all
+    recorded: ``poses`` (L, S + 1, 3), one row of :data:`_scan_parameters` and one start time
+    per lidar; their origins, angles and steps one lidar after the other (``beams_at``)."""
+    total = beams_at[-1]
+    ox, oy, angles = np.empty(total), np.empty(total), np.empty(total)
+    step = np.empty(total, dtype=np.int64)
+    for k in range(poses.shape[0]):
+        p = parameters[k]
+        a, n = beams_at[k], int(p[1])
+        ox[a:a + n], oy[a:a + n], angles[a:a + n], step[a:a + n] = _beam_geometry(
+            times, poses[k], starts[k], p[0], n, p[2], p[3], p[4], p[5])
+    return ox, oy, angles, step
+
+
+@njit(cache=True)
+def _cast_many(ox: FloatArray, oy: FloatArray, angles: FloatArray, step: NDArray[np.int64],
+               parameters: FloatArray, beams_at: NDArray[np.int64], near: FloatArray,
+               near_at: NDArray[np.int64], circles: FloatArray, people: FloatArray,
+               draws: FloatArray, draws_at: NDArray[np.int64]
+               ) -> tuple[FloatArray, NDArray[np.float32],
+                          NDArray[np.float32]]:  # pragma: no cover - compiled by numba
+    """Every lidar's beams cast against its walls (``near[near_at[k]:near_at[k + 1]]``), the
+    world's discs and the people, then measured with its draws (from ``draws_at[k]``: its
+    noise's standard normals, then its dropout draws; none for what it lacks): the float64
+    ranges, the float32 ranges and the intensities of all scans one after the other."""
+    total = beams_at[-1]
+    out = np.empty(total)
+    out32 = np.empty(total, dtype=np.float32)
+    intensities = np.empty(total, dtype=np.float32)
+    for k in range(beams_at.shape[0] - 1):
+        p = parameters[k]
+        a, n, range_max, noise_std, dropout = beams_at[k], int(p[1]), p[7], p[9], p[8]
+        b = a + n
+        ranges = _cast_scan(ox[a:b], oy[a:b], angles[a:b], near[near_at[k]:near_at[k + 1]],
+                            circles, people, step[a:b], range_max)
+        d = draws_at[k]
+        noise = np.empty(n if noise_std else 0)
+        for i in range(noise.shape[0]):
+            noise[i] = 0.0 + noise_std * draws[d + i]   # as rng.normal(0.0, noise_std)
+        d += noise.shape[0]
+        r32, i32 = _measure(ranges, noise, draws[d:d + (n if dropout else 0)], dropout, p[6],
+                            range_max)
+        out[a:b] = ranges
+        out32[a:b] = r32
+        intensities[a:b] = i32
+    return out, out32, intensities

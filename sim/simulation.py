@@ -39,7 +39,7 @@ from kit.control import DCMotor
 from kit.robots import RobotDescription
 from kit.robots import load as load_robot
 from sim import _walk as _walk_rules
-from sim.sensors import Imu, Lidar, encoder_counts, stamp_of
+from sim.sensors import Imu, Lidar, encoder_counts, finish_scans, stamp_of
 from sim.world import World, along_walls, free_distance, load_world
 
 __all__ = ["Collision", "GroundTruth", "Physics", "Simulation"]
@@ -64,6 +64,8 @@ _set_body_velocity = _chipmunk.cpBodySetVelocity
 _space_step = _chipmunk.cpSpaceStep
 _header = msgs.Header.trusted_builder()
 _joint_state = msgs.JointState.trusted_builder()
+_PI, _TWO_PI = math.pi, 2.0 * math.pi
+_cos, _sin = math.cos, math.sin
 
 
 @dataclass(frozen=True)
@@ -195,6 +197,8 @@ class _Robot:
     """(right, left) wheels' y in base_link [m]."""
     oil_force: float = 0.0
     """[N] a wheel's traction on oil."""
+    oil_near: tuple[tuple[float, float, float, float], ...] = ()
+    """The world's oil patches (x0, y0, x1, y1) [m] grown by the wheels' reach."""
 
     @property
     def topics(self) -> tuple[str, str, str]:
@@ -213,6 +217,10 @@ class _Robot:
         self.xy_yaw: tuple[float, float, float] = (0.0, 0.0, 0.0)
         """(x, y, yaw) [m, m, rad] as plain floats (a new tuple each step, never changed)."""
         self.cp_body: Any = self.body._body
+        self.wheel_radius: float = self.description.wheel_radius
+        self.ticks_per_rad: float = self.description.ticks_per_wheel_turn / (2 * math.pi)
+        """encoder ticks per radian of wheel rotation (as :meth:`Simulation._joint_state`
+        computes it)."""
         self.cp_grounds: tuple[Any, ...] = tuple(g._body for g in self.grounds)
 
     @property
@@ -415,6 +423,12 @@ class Simulation:
                         np.cumsum([0, *lengths])[:-1].astype(np.int64),
                         np.array(lengths, dtype=np.int64))
         corners = [len(r.description.footprint) for r in self.robots]
+        groups: dict[tuple[tuple[int, ...], bytes], list[int]] = {}
+        for k, r in enumerate(self.robots):   # the robots of one footprint, for _walk
+            footprint = np.ascontiguousarray(r.description.footprint, dtype=np.float64)
+            groups.setdefault((footprint.shape, footprint.tobytes()), []).append(k)
+        self._footprint_groups = [(self.robots[g[0]].description.footprint, g)
+                                  for g in groups.values()]
         self._footprints = (
             np.array(corners, dtype=np.int64),
             np.array([float(np.ptp(r.description.footprint[:, 1])) for r in self.robots]),
@@ -473,6 +487,11 @@ class Simulation:
         robot.radius_factors = tuple(1.0 + e for e in ph.wheel_radius_errors)
         robot.wheel_points = tuple((ax, ay + f * d.wheel_separation) for f in (-0.5, 0.5))
         robot.oil_force = ph.oil_friction / ph.friction * traction
+        # the oil patches grown by how far a wheel is from the body's origin (and a
+        # micrometre for rounding): a body outside all of them has no wheel on oil
+        reach = max(math.hypot(x, y) for x, y in robot.wheel_points) + 1e-6
+        robot.oil_near = tuple((x0 - reach, y0 - reach, x1 + reach, y1 + reach)
+                               for x0, y0, x1, y1 in self.world._oil_rects)
         if self._controller_factory is not None:
             robot.controllers = [self._controller_factory(), self._controller_factory()]
         return robot
@@ -571,13 +590,22 @@ class Simulation:
             crowd.speed[i] = float(self.rng.uniform(0.8, 1.4))
         corners, widths, most = self._footprints
         outlines = np.zeros((len(robots), most, 2))
-        for k, r in enumerate(robots):
-            # kit.geometry.transform_points's arithmetic: numpy's product (which may fuse a
-            # multiply and an add), then the position added
-            c, s = math.cos(r.yaw), math.sin(r.yaw)
-            rotated = r.description.footprint @ np.array(((c, -s), (s, c))).T
-            np.add(rotated, (r.x, r.y), out=outlines[k, :corners[k]])
         where = np.array([(r.x, r.y) for r in robots]).reshape(-1, 2)
+        for footprint, group in self._footprint_groups:
+            # kit.geometry.transform_points's arithmetic: numpy's product (which may fuse a
+            # multiply and an add; stacked, each robot's is the product it would be alone),
+            # then the position added
+            rotations: list[tuple[tuple[float, float], tuple[float, float]]] = []
+            for k in group:
+                c, s = math.cos(robots[k].yaw), math.sin(robots[k].yaw)
+                rotations.append(((c, -s), (s, c)))
+            if len(group) == 1:
+                k = group[0]
+                np.add(footprint @ np.array(rotations[0]).T, (robots[k].x, robots[k].y),
+                       out=outlines[k, :len(footprint)])
+            else:
+                turn = np.array(rotations).transpose(0, 2, 1)
+                outlines[group, :len(footprint)] = footprint @ turn + where[group, None, :]
         moving = np.array([r.world_velocity for r in robots]).reshape(-1, 2)
         walking = _walk_rules.walk(positions, body_velocities, crowd.speed, routes, start,
                                    length, crowd.target, crowd.direction, crowd.blocked,
@@ -854,28 +882,83 @@ class Simulation:
                     r.on_oil[k] = slippery
                     r.joints[k].max_force = r.oil_force if slippery else r.traction
 
+    def _drive_servos(self, robots: list[_Robot], dt: float) -> None:
+        """:meth:`_drive` for every robot when the wheels are ideal servos on a floor without
+        micro-slip (no ``wheel_motor``, no ``slip_variance``): the same arithmetic, operation
+        for operation, in one loop with both wheels written out (this runs for every robot
+        at every step)."""
+        rects = self.world._oil_rects if self._oil else ()
+        for r in robots:
+            cp_body = r.cp_body
+            angle = _body_angle(cp_body)
+            c, s = math.cos(angle), math.sin(angle)
+            speeds, angles, (target_r, target_l) = r.speeds, r.angles, r.targets
+            limit, wheel_radius = r.limit, r.wheel_radius
+            factor_r, factor_l = r.radius_factors
+            ground_r, ground_l = r.cp_grounds
+            speed = speeds[0]
+            change = target_r - speed
+            speed = speed + (limit if change > limit else -limit if change < -limit else change)
+            speeds[0] = speed
+            angles[0] += speed * dt
+            rim = speed * wheel_radius * factor_r
+            _set_body_velocity(ground_r, (rim * c, rim * s))
+            speed = speeds[1]
+            change = target_l - speed
+            speed = speed + (limit if change > limit else -limit if change < -limit else change)
+            speeds[1] = speed
+            angles[1] += speed * dt
+            rim = speed * wheel_radius * factor_l
+            _set_body_velocity(ground_l, (rim * c, rim * s))
+            if rects:
+                position = _body_position(cp_body)
+                px, py = position.x, position.y
+                on_oil = r.on_oil
+                if not (on_oil[0] or on_oil[1]):
+                    # off the oil, and no wheel can be on it (each wheel is within
+                    # r.wheel_reach of the body's origin): nothing changes
+                    for x0, y0, x1, y1 in r.oil_near:
+                        if x0 <= px <= x1 and y0 <= py <= y1:
+                            break
+                    else:
+                        continue
+                for k in (0, 1):
+                    x, y = r.wheel_points[k]
+                    wx, wy = px + c * x - s * y, py + s * x + c * y
+                    # World.in_oil, written out
+                    slippery = False
+                    for x0, y0, x1, y1 in rects:
+                        if x0 <= wx <= x1 and y0 <= wy <= y1:
+                            slippery = True
+                            break
+                    if slippery != on_oil[k]:  # pymunk's setters are dear: only on a change
+                        on_oil[k] = slippery
+                        r.joints[k].max_force = r.oil_force if slippery else r.traction
+
     def _read_state(self, r: _Robot, dt: float | None = None) -> None:
         cp_body = r.cp_body
         angle = _body_angle(cp_body)
         # geometry.wrap_angle's arithmetic on a float
-        yaw = (angle + math.pi) % (2.0 * math.pi) - math.pi
-        if yaw >= math.pi:
-            yaw = yaw - 2.0 * math.pi
+        yaw = (angle + _PI) % _TWO_PI - _PI
+        if yaw >= _PI:
+            yaw = yaw - _TWO_PI
         velocity = _body_velocity(cp_body)
         vx, vy = velocity.x, velocity.y
-        c, s = math.cos(angle), math.sin(angle)
+        c, s = _cos(angle), _sin(angle)
         v_forward = c * vx + s * vy
         w = _body_angular_velocity(cp_body)
         if dt:
             # acceleration in base_link: the change of the world velocity, rotated in
-            ax_w = (vx - r.world_velocity[0]) / dt
-            ay_w = (vy - r.world_velocity[1]) / dt
+            wvx, wvy = r.world_velocity
+            ax_w = (vx - wvx) / dt
+            ay_w = (vy - wvy) / dt
             r.accel = (c * ax_w + s * ay_w, -s * ax_w + c * ay_w)
             r.yaw_accel = (w - r.yaw_rate) / dt
         r.world_velocity = (vx, vy)
         position = _body_position(cp_body)
-        r.x, r.y, r.yaw, r.yaw_rate, r.forward_speed = position.x, position.y, yaw, w, v_forward
-        r.xy_yaw = (position.x, position.y, yaw)
+        x, y = position.x, position.y
+        r.x, r.y, r.yaw, r.yaw_rate, r.forward_speed = x, y, yaw, w, v_forward
+        r.xy_yaw = (x, y, yaw)
 
     def step(self, cmd: Command | Mapping[int, Command] = None) -> list[tuple[str, Any]]:
         """Advance by one physics step (``physics.dt``).
@@ -897,8 +980,11 @@ class Simulation:
             self._walk()  # people decide where to go ten times a second
         robots = self.robots
         before = [r.xy_yaw for r in robots]  # _read_state replaces it with a new tuple
-        for r in robots:
-            self._drive(r, dt)
+        if ph.wheel_motor is None and not ph.slip_variance:
+            self._drive_servos(robots, dt)
+        else:
+            for r in robots:
+                self._drive(r, dt)
         self._step_space(dt / ph.substeps, ph.substeps)
         self.time = t1
         out: list[tuple[str, Any]] = []
@@ -906,21 +992,51 @@ class Simulation:
         segments, circles = self.world.lidar_segments, self.world.circles
         # this step's headers, one per frame: every robot's messages share them (immutable)
         headers: dict[str, msgs.Header] = {}
-        for i, r in enumerate(robots):
+        if len(robots) == 1:   # one robot: its messages made as they come
+            r = robots[0]
             self._read_state(r, dt)
             if r.lidar is not None:
-                scan = r.lidar.collect(t0, t1, before[i], r.xy_yaw, discs, segments, circles)
+                scan = r.lidar.collect(t0, t1, before[0], r.xy_yaw, discs, segments, circles)
                 if scan is not None:
-                    out.append((r.topics[0], scan))
+                    out.append((r._topics[0], scan))
             imu = r.imu
             if imu is not None and t1 + 1e-12 >= imu.next_time:
-                header = headers.get(imu.frame_id) or self._header(headers, imu.frame_id)
-                out.append((r.topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
+                header = self._header(headers, imu.frame_id)
+                out.append((r._topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
                                                      r.accel, header)))
             if t1 + 1e-12 >= r.next_joint_state:
                 r.next_joint_state += 0.02
                 header = headers.get("") or self._header(headers, "")
-                out.append((r.topics[2], self._joint_state(r, header)))
+                out.append((r._topics[2], self._joint_state(r, header)))
+            return out
+        # several: the scans and joint states due now made together after the loop, into
+        # their places in out (the scans in one compiled call when they can)
+        due: list[tuple[int, Lidar]] = []
+        joints_due: list[tuple[int, _Robot]] = []
+        for i, r in enumerate(robots):
+            self._read_state(r, dt)
+            lidar = r.lidar
+            if lidar is not None and lidar.record(t0, t1, before[i], r.xy_yaw, discs):
+                due.append((len(out), lidar))
+                out.append((r._topics[0], None))
+            imu = r.imu
+            if imu is not None and t1 + 1e-12 >= imu.next_time:
+                header = headers.get(imu.frame_id) or self._header(headers, imu.frame_id)
+                out.append((r._topics[1], imu.measure(t1, r.yaw, r.yaw_rate, r.yaw_accel,
+                                                     r.accel, header)))
+            if t1 + 1e-12 >= r.next_joint_state:
+                r.next_joint_state += 0.02
+                joints_due.append((len(out), r))
+                out.append((r._topics[2], None))
+        if due:
+            scans = finish_scans([lidar for _, lidar in due], segments, circles)
+            for (k, _), scan in zip(due, scans, strict=True):
+                out[k] = (out[k][0], scan)
+        if joints_due:
+            header = headers.get("") or self._header(headers, "")
+            for (k, _), state in zip(joints_due, self._joint_states(
+                    [r for _, r in joints_due], header), strict=True):
+                out[k] = (out[k][0], state)
         return out
 
     def _header(self, headers: dict[str, msgs.Header], frame_id: str) -> msgs.Header:
@@ -985,8 +1101,27 @@ class Simulation:
         return self._joint_state(self.robots[robot], _header(stamp_of(self.time), ""))
 
     @staticmethod
+    def _joint_states(robots: list[_Robot], header: msgs.Header) -> list[msgs.JointState]:
+        """:meth:`_joint_state` of several robots, the same numbers, their arrays rows of
+        one array each (two numpy calls instead of two per robot)."""
+        floor = math.floor
+        wheels: list[float] = []
+        speeds: list[float] = []
+        for r in robots:
+            per_rad = r.ticks_per_rad
+            right, left = r.angles
+            wheels += (floor(right * per_rad) / per_rad, floor(left * per_rad) / per_rad)
+            speeds += r.speeds
+        positions = np.array(wheels).reshape(-1, 2)
+        velocities = np.array(speeds).reshape(-1, 2)
+        positions.flags.writeable = velocities.flags.writeable = False  # handed over
+        # each message's arrays are rows of these (read-only float64, two wheels each)
+        return [_joint_state(header, _WHEEL_JOINTS, position, velocity, _NO_EFFORT)
+                for position, velocity in zip(positions, velocities, strict=True)]
+
+    @staticmethod
     def _joint_state(r: _Robot, header: msgs.Header) -> msgs.JointState:
-        per_rad = r.description.ticks_per_wheel_turn / (2 * math.pi)
+        per_rad = r.ticks_per_rad
         right, left = r.angles
         position = np.array((math.floor(right * per_rad) / per_rad,
                              math.floor(left * per_rad) / per_rad))

@@ -57,6 +57,12 @@ SCENES = {
     # Lab 11's bystander: standing in the corridor, passed by the walker (the robot waits)
     "bystander": (lambda: with_bystander(door_world(), (9.5, 0.75)),
                   lambda t: twist(0.0), 15.0),
+    # three Uiabots and the IGV among six people: the outlines of robots of one footprint
+    # turned together (one stacked product), the IGV's alone
+    "robots": (lambda: Simulation("office", ["uiabot", "igv", "uiabot", "uiabot"], seed=3,
+                                  people=6),
+               lambda t: {i: twist(0.3 + 0.1 * i, 0.6 * math.sin(0.3 * t + i))
+                          for i in range(4)}, 30.0),
 }
 
 
