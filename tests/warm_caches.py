@@ -10,8 +10,8 @@ ruff and mypy, on the core they leave free; with the caches already there it onl
 What runs: one AMCL episode of the office tour (the simulator with its people, the lidar,
 AMCL's likelihood field, the costmaps, the planner, Regulated Pure Pursuit), one SLAM
 episode with DWB (the SLAM front end's matchers and mapping, DWB's footprint checks), and
-AMCL's beam model's ray casting: the user's own commands, so nothing here names a private
-function.
+AMCL's beam model's ray casting (the user's own commands, so nothing here names a private
+function), and half a second of two robots, whose scans are cast together.
 
 ``python tests/warm_caches.py`` (a checkout's ``.venv``); it prints one line.
 """
@@ -43,6 +43,13 @@ def warm() -> None:
                     raise SystemExit(f"warm_caches: python -m sim {' '.join(argv)} failed")
     field = LikelihoodField.from_grid(load_world("office").occupancy_grid(0.05, layer="lidar"))
     expected_ranges(field, np.array([4.0, 6.0, 0.0]), np.linspace(-3.0, 3.0, 60), 12.0)
+    # several robots: their scans of a frame are cast together
+    from sim.simulation import Simulation
+
+    sim = Simulation("square", ["uiabot", "uiabot"], seed=1, people=2,
+                     start=[[1.0, 1.0, 0.0], [3.0, 1.0, 0.0]])
+    for _ in range(round(0.5 / sim.physics.dt)):
+        sim.step()
 
 
 if __name__ == "__main__":
