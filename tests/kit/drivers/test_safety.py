@@ -21,8 +21,11 @@ from hardware.emulators.dpralte import COMMS_ERROR, DpralteBusEmulator
 from hardware.emulators.odrive import ERROR_WATCHDOG, ODriveEmulator
 from kit import cli
 
+# A program as a terminal starts it: Ctrl-C raises KeyboardInterrupt. (Python leaves SIGINT
+# ignored when it starts ignored, as it does under nohup or a shell's background job.)
 DRIVER = """
-import sys, time
+import signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from kit.drivers.bases import IgvBase, UiabotBase
 robot, path, timeout, how = sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4]
 if robot == "uiabot":
