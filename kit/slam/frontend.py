@@ -86,7 +86,6 @@ def thin(points: FloatArray, spacing: float) -> FloatArray:
     return points[np.sort(first)]
 
 
-
 def scan_points(scan: msgs.LaserScan, base_to_laser: ArrayLike = (0.0, 0.0, 0.0),
                 beam_motion: FloatArray | None = None, max_range: float = math.inf
                 ) -> FloatArray:
