@@ -915,8 +915,8 @@ class Simulation:
                 px, py = position.x, position.y
                 on_oil = r.on_oil
                 if not (on_oil[0] or on_oil[1]):
-                    # off the oil, and no wheel can be on it (each wheel is within
-                    # r.wheel_reach of the body's origin): nothing changes
+                    # off the oil, and no wheel can be on it (the body's origin is outside
+                    # every patch grown by the wheels' reach, r.oil_near): nothing changes
                     for x0, y0, x1, y1 in r.oil_near:
                         if x0 <= px <= x1 and y0 <= py <= y1:
                             break
