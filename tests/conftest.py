@@ -1,8 +1,12 @@
-"""Shared fixtures: where ../shared/data is, and a marker for tests that need it; and
-hypothesis set up to judge examples, never the machine's speed."""
+"""Shared fixtures: where ../shared/data is, and a marker for tests that need it; a result
+computed once for both test workers; and hypothesis set up to judge examples, never the
+machine's speed."""
 
 from __future__ import annotations
 
+import fcntl
+import os
+import pickle
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -81,3 +85,34 @@ def solved_release(lab: str, dest: Path, old: str | None = None, new: str = "",
 def solved():
     """:func:`solved_release`: an honest (or deliberately mistaken) submission of a lab."""
     return solved_release
+
+
+@pytest.fixture(scope="session")
+def once_for_all_workers(tmp_path_factory: pytest.TempPathFactory
+                         ) -> Callable[[str, Callable[[], Any]], Any]:
+    """``once(key, compute)``: ``compute()``'s value, computed by one test process of the run.
+
+    A module-scoped fixture is made once per pytest-xdist worker that runs one of its tests,
+    so an expensive one (a class graded under a sandbox layer) was made twice when both
+    workers took some of its tests. The first worker to ask computes the value under an
+    exclusive lock and leaves it pickled in the run's shared temporary folder; the other
+    waits for the lock and loads it. A ``compute`` that raises leaves nothing, and the next
+    worker to ask computes again. Paths in the value stay valid: no worker's temporary folder
+    is removed before the run ends. Without xdist it is ``compute()``."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        return lambda key, compute: compute()
+    shared = tmp_path_factory.getbasetemp().parent
+
+    def once(key: str, compute: Callable[[], Any]) -> Any:
+        stored = shared / f"once-{key}.pickle"
+        with open(shared / f"once-{key}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)      # released when the file closes
+            if stored.exists():
+                return pickle.loads(stored.read_bytes())
+            value = compute()
+            partial = stored.with_suffix(".partial")
+            partial.write_bytes(pickle.dumps(value))
+            partial.replace(stored)
+            return value
+
+    return once

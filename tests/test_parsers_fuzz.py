@@ -80,7 +80,8 @@ def test_odrive_reply_lines_raise_only_documented_errors(line, checksum):
 
 
 class _Scripted:
-    """A port whose device answers every request with the same bytes."""
+    """A port whose device answers every request with the same bytes, and never waits: a read
+    returns what is there. The drivers wait on :class:`_Ticks` instead of the wall clock."""
 
     def __init__(self, reply: bytes) -> None:
         self.port = serial.serial_for_url("loop://", timeout=0.001)
@@ -93,16 +94,40 @@ class _Scripted:
         self.port.write(self.reply)
         return len(data)
 
+    def read(self, size=1):
+        return self.port.read(min(size, self.port.in_waiting))
+
+
+class _Ticks:
+    """A logical clock that moves a millisecond each time it is read (and by what ``sleep``
+    is given): a driver's time-out ends after as many reads as it would take on a real line,
+    without the wall-clock wait."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        self.now += 0.001
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += max(0.0, seconds)
+
 
 @settings(max_examples=100, deadline=None)
 @given(st.binary(max_size=200))
 def test_drivers_given_garbage_raise_only_documented_errors(reply):
+    def waits():
+        ticks = _Ticks()
+        return {"clock": ticks, "sleep": ticks.sleep}
+
     calls = [
-        lambda: odrive.ODrive(_Scripted(reply), timeout=0.02).vbus_voltage(),
-        lambda: odrive.ODrive(_Scripted(reply), timeout=0.02, checksum=False).feedback(0),
-        lambda: bno055.BNO055(_Scripted(reply), timeout=0.02, retries=1).euler(),
-        lambda: lms2xx.LMS2xx(_Scripted(reply), timeout=0.02, tries=1).status(),
-        lambda: rplidar.RPLidar(_Scripted(reply), timeout=0.02).health(),
+        lambda: odrive.ODrive(_Scripted(reply), timeout=0.02, **waits()).vbus_voltage(),
+        lambda: odrive.ODrive(_Scripted(reply), timeout=0.02, checksum=False,
+                              **waits()).feedback(0),
+        lambda: bno055.BNO055(_Scripted(reply), timeout=0.02, retries=1, **waits()).euler(),
+        lambda: lms2xx.LMS2xx(_Scripted(reply), timeout=0.02, tries=1, **waits()).status(),
+        lambda: rplidar.RPLidar(_Scripted(reply), timeout=0.02, **waits()).health(),
     ]
     for call in calls:
         try:
