@@ -295,17 +295,42 @@ def lab_notebook(folder: Path, lab: str) -> Path:
     return path
 
 
-def test_solutions_score_full_and_untouched_labs_score_zero(tmp_path, solved):
+@pytest.fixture(scope="module")
+def graded_labs(tmp_path_factory, solved, once_for_all_workers):
+    """Every lab graded as a class hands it in, one grading server per lab: the release with
+    the solution's exercise cells, the untouched release and the seeded bugs of ``BUGS``
+    together. Once in a run, whichever worker asks first: ``{lab: (solution, untouched,
+    [(result, notebook, function, hint), ...])}``."""
+    def grade():
+        tmp = tmp_path_factory.mktemp("graded-labs")
+        bugs: dict[str, list[tuple[Path, str, str]]] = {}
+        for i, (lab, _name, function, old, new, hint) in enumerate(BUGS):
+            bugs.setdefault(lab, []).append((solved(lab, tmp / f"bug{i}.ipynb", old, new),
+                                             function, hint))
+        assert set(bugs) <= set(lab_names())
+        out = {}
+        for lab in lab_names():
+            seeded = bugs.get(lab, [])
+            graded = grade_submissions([solved(lab, tmp / f"{lab}.ipynb"),
+                                        lab_notebook(LABS, lab), *[p for p, _, _ in seeded]],
+                                       load_lab(lab), jobs=2)
+            out[lab] = (graded[0], graded[1],
+                        [(result, path.name, function, hint) for result, (path, function, hint)
+                         in zip(graded[2:], seeded, strict=True)])
+        return out
+
+    return once_for_all_workers("graded-labs", grade)
+
+
+def test_solutions_score_full_and_untouched_labs_score_zero(tmp_path, graded_labs):
     """Every lab with a spec: the release with the solution's exercise cells in it (what an
     honest student hands in) earns every point with no cell error, warning or accusation
     anywhere in its results; the untouched release earns nothing."""
     results = {}
     for lab in lab_names():
         spec = load_lab(lab)
-        graded = grade_submissions([solved(lab, tmp_path / f"{lab}.ipynb"),
-                                    lab_notebook(LABS, lab)], spec, jobs=2)
-        results[lab] = graded
-        solution, untouched = graded
+        solution, untouched, _ = graded_labs[lab]
+        results[lab] = [solution, untouched]
         assert solution.status == "ok" and solution.total == spec.max_points, solution.reason
         assert solution.cell_errors == [], solution.cell_errors
         assert all(e.status == "passed" and e.reason == f"all {len(e.cases)} cases pass"
@@ -473,19 +498,15 @@ BUGS = [
 ]
 
 
-def test_seeded_bugs_lose_exactly_their_exercise(tmp_path, solved):
-    by_lab: dict[str, list[tuple[Path, str, str]]] = {}
-    for i, (lab, _name, function, old, new, hint) in enumerate(BUGS):
-        path = solved(lab, tmp_path / f"bug{i}.ipynb", old, new)
-        by_lab.setdefault(lab, []).append((path, function, hint))
-    for lab, bugs in by_lab.items():
+def test_seeded_bugs_lose_exactly_their_exercise(graded_labs):
+    assert sum(len(bugs) for _, _, bugs in graded_labs.values()) == len(BUGS)
+    for lab, (_, _, bugs) in graded_labs.items():
         spec = load_lab(lab)
-        graded = grade_submissions([path for path, _, _ in bugs], spec, jobs=2)
-        for result, (path, function, hint) in zip(graded, bugs, strict=True):
+        for result, name, function, hint in bugs:
             lost = {k: v for k, v in result.exercises.items() if v.points < v.max_points}
-            assert list(lost) == [f"{lab}.{function}"], (path.name, {k: v.reason for k, v in
-                                                                      lost.items()})
-            assert result.cell_errors == [], (path.name, result.cell_errors)
+            assert list(lost) == [f"{lab}.{function}"], (name, {k: v.reason for k, v in
+                                                                 lost.items()})
+            assert result.cell_errors == [], (name, result.cell_errors)
             ex = lost[f"{lab}.{function}"]
             failed = sum(not c.passed for c in ex.cases)
             assert failed > 0
