@@ -116,3 +116,23 @@ def once_for_all_workers(tmp_path_factory: pytest.TempPathFactory
             return value
 
     return once
+
+
+@pytest.fixture(scope="session")
+def demo_run(tmp_path_factory: pytest.TempPathFactory, once_for_all_workers
+             ) -> tuple[int, str, Path]:
+    """``make demo``'s run (``sim.navdemo.main``, seed 7: the office mapped, then navigated
+    on that map among people), once in a test run: its exit status, what it printed and the
+    folder it wrote."""
+    def run() -> tuple[int, str, Path]:
+        import contextlib
+        import io
+
+        from sim import navdemo
+
+        out, printed = tmp_path_factory.mktemp("demo"), io.StringIO()
+        with contextlib.redirect_stdout(printed):
+            status = navdemo.main(out, seed=7)
+        return status, printed.getvalue(), out
+
+    return once_for_all_workers("make-demo-seed-7", run)

@@ -298,14 +298,15 @@ def test_the_rules_take_a_bag_humble_itself_recorded():
 
 
 @pytest.mark.slow
-def test_the_demos_navigation_bag_opens_under_humbles_rules(tmp_path):
-    """make demo's navigation phase (on the office's own map here, not the SLAM one): its
-    metadata under Humble's rules, the latched topics transient local, /clock leading."""
+def test_the_demos_bags_open_under_humbles_rules(demo_run):
+    """make demo's two bags (the run the demo's own test makes): the mapping bag's and the
+    navigation bag's metadata under Humble's rules; in the navigation bag the latched topics
+    transient local, /clock leading."""
     from sim import navdemo
-    from sim.world import load_world
 
-    grid = load_world("office").occupancy_grid(0.05, layer="lidar")
-    navdemo.navigate_on_map(grid, 7, tmp_path / "demo_loop")
+    _, _, tmp_path = demo_run
+    mapping = humble_metadata((tmp_path / "demo_office" / "metadata.yaml").read_text("utf-8"))
+    assert {"/clock", "/scan", "/tf_static"} <= mapping["topics"].keys()
     meta = humble_metadata((tmp_path / "demo_loop" / "metadata.yaml").read_text("utf-8"))
     topics = meta["topics"]
     assert set(navdemo.TOPICS) | {"/clock", "/map", "/tf_static"} == topics.keys()

@@ -12,9 +12,9 @@ from sim import navdemo
 
 
 @pytest.mark.slow
-def test_the_demo_maps_the_office_then_navigates_it_and_writes_its_files(tmp_path, capsys):
-    assert navdemo.main(tmp_path, seed=7) == 0
-    out = capsys.readouterr().out
+def test_the_demo_maps_the_office_then_navigates_it_and_writes_its_files(demo_run):
+    status, out, tmp_path = demo_run
+    assert status == 0
     grid = read_map(tmp_path / "demo_map.yaml")
     assert 0.04 < grid.info.resolution < 0.06 and grid.info.width > 300
     reached = int(out.split("AMCL among 5 people: ")[1].split(" of ")[0])
