@@ -10,6 +10,7 @@ least one failing public case must name it alone.
 
 from __future__ import annotations
 
+import copy
 import heapq
 import itertools
 import math
@@ -32,11 +33,25 @@ HONEST: dict[str, dict[str, list]] = {}
 that must keep full marks for every student (each lab's section adds its own)."""
 
 
+_HIDDEN: dict[tuple[str, int], list] = {}
+
+
+def hidden_cases(exercise, seed: int) -> list:
+    """The hidden cases a seed draws, made once per test process for every variant of the
+    exercise tried here (some generators simulate: Lab 04's step responses). The functions
+    under test get copies of their arguments, as the grader's process does, so that one
+    that changes them in place leaves the cases as they were."""
+    key = (exercise.id, seed)
+    if key not in _HIDDEN:
+        _HIDDEN[key] = list(exercise.hidden_cases(seed))
+    return _HIDDEN[key]
+
+
 def hints(exercise, case, fn) -> set[str] | None:
     """None when ``fn`` passes ``case``, else the names of the hints its output gets. Judging
     the output (the reference, the comparison, the diagnostics) must raise no warning: a
     student's inf or NaN gets a message, never a RuntimeWarning in the check's output."""
-    got = fn(*case.args, **case.kwargs)
+    got = fn(*copy.deepcopy(case.args), **copy.deepcopy(case.kwargs))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         verdict = explain(exercise, case, got)
@@ -1810,7 +1825,7 @@ def test_each_classic_mistake_gets_exactly_its_hint(lab, function, mistake, bugg
     allowed = {mistake} | COINCIDENT.get((function, mistake), set())
     failing_public, failing = [], []
     for seed in (None, *HIDDEN_SEEDS):
-        cases = exercise.public if seed is None else exercise.hidden_cases(seed)
+        cases = exercise.public if seed is None else hidden_cases(exercise, seed)
         for case in cases:
             names = hints(exercise, case, buggy)
             if names is None:
@@ -1837,7 +1852,7 @@ submission that fits the public cases by hand still loses points."""
 def _fails(exercise, fn, cases) -> bool:
     for case in cases:
         try:
-            got = fn(*case.args, **case.kwargs)
+            got = fn(*copy.deepcopy(case.args), **copy.deepcopy(case.kwargs))
         except Exception:
             return True
         if explain(exercise, case, got) is not None:
@@ -1845,11 +1860,14 @@ def _fails(exercise, fn, cases) -> bool:
     return False
 
 
+def _hidden_cases(exercise, secret: str, student: str) -> list:
+    return hidden_cases(exercise, course_seed(exercise.id, student, secret))
+
+
 def _students_spared(exercise, fn) -> list[tuple[str, str]]:
     """The (secret, student) pairs whose hidden cases all pass ``fn``."""
     return [(secret, student) for secret in SECRETS for student in STUDENTS
-            if not _fails(exercise, fn, exercise.hidden_cases(
-                course_seed(exercise.id, student, secret)))]
+            if not _fails(exercise, fn, _hidden_cases(exercise, secret, student))]
 
 
 @pytest.mark.parametrize(("lab", "function", "mistake", "buggy"), ENTRIES,
@@ -2110,8 +2128,7 @@ def test_each_honest_variant_keeps_full_marks_for_every_student(lab, function, v
     exercise = load_lab(lab).exercise(function)
     assert not _fails(exercise, honest, exercise.public), "a public case fails"
     failed = [(secret, student) for secret in SECRETS for student in STUDENTS
-              if _fails(exercise, honest, exercise.hidden_cases(
-                  course_seed(exercise.id, student, secret)))]
+              if _fails(exercise, honest, _hidden_cases(exercise, secret, student))]
     assert not failed, (f"{len(failed)} of {len(SECRETS) * len(STUDENTS)} students lose points "
                         f"for {variant!r}, e.g. {failed[:3]}")
 
