@@ -180,8 +180,12 @@ def map_scene(path: Path, name: str | None = None) -> Scene:
     occupied = grid.data.reshape(info.height, info.width) >= 65
     clear = distance_transform_edt(~occupied) * info.resolution
     inside = distance_transform_edt(mapped_free) * info.resolution
-    return Scene(name or path.parent.name, grid, (clear > CLEARANCE) & (inside > CLEARANCE),
-                 raster_caster(grid))
+    roam = (clear > CLEARANCE) & (inside > CLEARANCE)
+    if not roam.any():
+        raise ValueError(f"{path}: no mapped free cell is {CLEARANCE} m clear of walls and "
+                         f"unmapped space ({info.width} × {info.height} cells of "
+                         f"{info.resolution:g} m): no room for a track")
+    return Scene(name or path.parent.name, grid, roam, raster_caster(grid))
 
 
 def olin_scene() -> Scene:
@@ -528,10 +532,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"the build of Nav2's sources against the amcl package, beam model, 10 scans: "
               f"largest difference of the estimates {worst:.3g}")
     table: dict[str, dict[str, dict[str, list[list[float]]]]] = {}
-    scenes: list[Callable[[], Scene]] = [SCENES[name] for name in args.scenes.split(",") if name]
-    scenes += [lambda path=path: map_scene(path) for path in args.map]
-    for make_scene in scenes:
-        scene = make_scene()
+    unknown = [name for name in args.scenes.split(",") if name and name not in SCENES]
+    if unknown:
+        parser.error(f"unknown scene {unknown[0]!r}: {', '.join(SCENES)} (--map for a map file)")
+    try:  # every map read (and refused) before the first run
+        scenes = [SCENES[name]() for name in args.scenes.split(",") if name]
+        scenes += [map_scene(path) for path in args.map]
+    except (OSError, ValueError) as exc:
+        raise SystemExit(f"amcl_vs_nav2: {exc}") from None
+    for scene in scenes:
         scene_name = scene.name
         for n in args.particles:
             results = []
