@@ -89,13 +89,14 @@ class FreeSpace:
         p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         if self.scans == 0 or len(p) == 0:
             return np.zeros(len(p), dtype=bool)
-        free = self.grid.log_odds < self._l_free
-        rows, cols = free.shape
+        log_odds = self.grid.log_odds
+        rows, cols = log_odds.shape
         cells = self.grid.cells(p)
         cx = cells[:, 0, None] + self._offsets[None, :, 0]
         cy = cells[:, 1, None] + self._offsets[None, :, 1]
         inside = (cx >= 0) & (cx < cols) & (cy >= 0) & (cy < rows)
-        seen = free[np.clip(cy, 0, rows - 1), np.clip(cx, 0, cols - 1)] & inside
+        free = log_odds[np.clip(cy, 0, rows - 1), np.clip(cx, 0, cols - 1)] < self._l_free
+        seen = free & inside
         return np.asarray(seen.all(axis=1), dtype=bool)
 
 
