@@ -25,6 +25,7 @@ in ``nav_msgs/OccupancyGrid``: cell ``(row, col)`` covers
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -100,19 +101,19 @@ class InverseSensorModel:
         if not self.max_clear_range > 0:
             raise ValueError(f"max_clear_range must be positive [m]; got {self.max_clear_range}")
 
-    @property
+    @functools.cached_property
     def l_occupied(self) -> float:
         return float(log_odds(self.p_occupied))
 
-    @property
+    @functools.cached_property
     def l_free(self) -> float:
         return float(log_odds(self.p_free))
 
-    @property
+    @functools.cached_property
     def l_min(self) -> float:
         return float(log_odds(self.p_min))
 
-    @property
+    @functools.cached_property
     def l_max(self) -> float:
         return float(log_odds(self.p_max))
 

@@ -14,9 +14,10 @@ with ``w`` and ``a`` the linear and angular half-windows and ``κ`` the ``penalt
 
 A coarse table holding, per cell, the maximum of ``L`` over the ``f × f`` fine offsets it
 stands for bounds every fine score from above, so fine offsets are only scored inside the
-coarse blocks that could still beat the best fine score found (branch and bound): the answer
-is the exhaustive search's. The covariance comes from the responses around the best pose, as
-Karto computes it.
+coarse blocks that could still beat the best fine score found (branch and bound), and within
+a block only in the sub-blocks a table of half its size says could: the answer is the
+exhaustive search's. The covariance comes from the responses around the best pose, as Karto
+computes it.
 
 The search and the rasterisation run compiled (numba, ``cache=True``); ``method="numpy"``
 runs the plain versions the tests hold them to.
@@ -86,11 +87,7 @@ class LikelihoodField:
         score, so a coarse score bounds the fine ones from above."""
         table = self._coarse.get(factor)
         if table is None:
-            from scipy.ndimage import maximum_filter
-
-            f = int(factor)
-            padded = np.pad(self.values, f - 1)
-            table = maximum_filter(padded, size=f, origin=-(f // 2), mode="constant", cval=0.0)
+            table = _compiled()[3](self.values, int(factor))
             self._coarse[factor] = table
         return table
 
@@ -176,9 +173,10 @@ def _scores_python(values: FloatArray, ix: IntArray, iy: IntArray, k: IntArray, 
     return out
 
 
-def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, ix: IntArray,
-                             iy: IntArray, half: int, factor: int, angle_penalty: FloatArray,
-                             linear_penalty: float) -> tuple[int, int, int, float]:
+def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, sub: FloatArray,
+                             ix: IntArray, iy: IntArray, half: int, factor: int,
+                             sub_factor: int, angle_penalty: FloatArray, linear_penalty: float
+                             ) -> tuple[int, int, int, float]:
     # pragma: no cover - compiled by numba
     """The best ``(angle index, dx, dy [cells], score)`` over angles and offsets in
     ``[−half, half]²``: blocks of ``factor²`` offsets scored on ``coarse`` (an upper bound,
@@ -186,25 +184,51 @@ def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, ix: IntArra
     fine offsets are scored only while its bound beats the best score found.
 
     Each sum runs over the points in their order (``j`` ascending), point by point for all
-    offsets at once, so the table is read along its rows; the offsets are then taken in the
-    order a block lists them."""
+    offsets at once; the offsets are then taken in the order a block lists them, and the
+    first that beats the best score found so far becomes the best.
+
+    Inside a block, its 2 × 2 sub-blocks of ``sub_factor²`` offsets (``sub_factor`` =
+    ⌈factor / 2⌉; those past the window's edge are cut short) are first bounded the same way
+    on ``sub``, the coarse table of ``sub_factor``, and only those whose bound beats the best
+    score at the block's start are scored. A sum of larger terms in the same order is never
+    smaller in floating point, nor is it after the same division and a larger penalty, so
+    an offset skipped could not have beaten the best: the answer is the one scoring every
+    offset of the block gives, to the bit (ties included)."""
     k_count, m = ix.shape
-    f = factor
+    f, g = factor, sub_factor
     starts = np.arange(-half, half + 1, f)
     nb = len(starts)
     ch, cw = coarse.shape
+    # the coarse table's columns by their remainder mod f, columns[r, row, q] =
+    # coarse[row, r + q f]: a point's blocks along x are then read one after another
+    nq = (cw + f - 1) // f
+    columns = np.zeros((f, ch, nq))
+    for r in range(f):
+        for row in range(ch):
+            q = 0
+            for col in range(r, cw, f):
+                columns[r, row, q] = coarse[row, col]
+                q += 1
     sums = np.zeros((k_count, nb, nb))           # [k, y block, x block]
     for k in range(k_count):
         for j in range(m):
-            cx0, cy0 = ix[k, j] + f - 1, iy[k, j] + f - 1
+            base = ix[k, j] + f - 1 - half        # coarse column of x block a: base + a f
+            cy0 = iy[k, j] + f - 1
+            a_lo = 0 if base >= 0 else (f - 1 - base) // f
+            a_hi = min(nb, (cw - 1 - base) // f + 1) if base <= cw - 1 else 0
+            na = a_hi - a_lo
+            if na <= 0:
+                continue
+            col0 = base + a_lo * f
+            r = col0 % f
+            q0 = col0 // f
+            a_lo, q0 = max(a_lo, 0), max(q0, 0)   # (both ≥ 0: lets the compiler vectorise)
             for b in range(nb):
                 cy = cy0 + starts[b]
                 if cy < 0 or cy >= ch:
                     continue
-                for a in range(nb):
-                    cx = cx0 + starts[a]
-                    if 0 <= cx < cw:
-                        sums[k, b, a] += coarse[cy, cx]
+                for t in range(na):
+                    sums[k, b, a_lo + t] += columns[r, cy, q0 + t]
     bound = np.empty(k_count * nb * nb)
     for k in range(k_count):
         for a in range(nb):
@@ -217,26 +241,76 @@ def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, ix: IntArra
     order = np.argsort(-bound)
     best_k, best_x, best_y, best = k_count // 2, 0, 0, -1.0
     h, w = values.shape
+    sh, sw = sub.shape
     fine = np.zeros((f, f))                     # [dy − oy, dx − ox]
+    live = np.zeros((2, 2), dtype=np.bool_)     # [v, u]: sub-block (oy + v g, ox + u g)
     for n in order:
         if bound[n] <= best:
             break
         k = n // (nb * nb)
         ox, oy = starts[(n // nb) % nb], starts[n % nb]
         x_end, y_end = min(ox + f, half + 1), min(oy + f, half + 1)
-        fine[:, :] = 0.0
+        s00 = s01 = s10 = s11 = 0.0             # the sub-blocks' bound sums, s[v][u]
         for j in range(m):
-            px, py = ix[k, j], iy[k, j]
-            for dy in range(oy, y_end):
-                cy = py + dy
-                if cy < 0 or cy >= h:
+            cx = ix[k, j] + g - 1 + ox
+            cy = iy[k, j] + g - 1 + oy
+            if 0 <= cx and cx + g < sw and 0 <= cy and cy + g < sh:
+                s00 += sub[cy, cx]
+                s01 += sub[cy, cx + g]
+                s10 += sub[cy + g, cx]
+                s11 += sub[cy + g, cx + g]
+            else:
+                in_y0 = 0 <= cy < sh
+                in_y1 = 0 <= cy + g < sh
+                in_x0 = 0 <= cx < sw
+                in_x1 = 0 <= cx + g < sw
+                if in_y0 and in_x0:
+                    s00 += sub[cy, cx]
+                if in_y0 and in_x1:
+                    s01 += sub[cy, cx + g]
+                if in_y1 and in_x0:
+                    s10 += sub[cy + g, cx]
+                if in_y1 and in_x1:
+                    s11 += sub[cy + g, cx + g]
+        any_live = False
+        for v in range(2):
+            for u in range(2):
+                sx, sy = ox + u * g, oy + v * g
+                if sx >= x_end or sy >= y_end:
+                    live[v, u] = False
                     continue
-                for dx in range(ox, x_end):
-                    cx = px + dx
-                    if 0 <= cx < w:
-                        fine[dy - oy, dx - ox] += values[cy, cx]
+                ssum = (s00 if u == 0 else s01) if v == 0 else (s10 if u == 0 else s11)
+                nx = 0 if sx <= 0 < sx + g else min(abs(sx), abs(sx + g - 1))
+                ny = 0 if sy <= 0 < sy + g else min(abs(sy), abs(sy + g - 1))
+                pen = angle_penalty[k] - linear_penalty * (nx * nx + ny * ny)
+                live[v, u] = pen > 0.0 and ssum / m * pen > best
+                any_live = any_live or live[v, u]
+        if not any_live:
+            continue
+        for v in range(2):
+            for u in range(2):
+                if not live[v, u]:
+                    continue
+                sx, sy = ox + u * g, oy + v * g
+                sx_end, sy_end = min(sx + g, x_end), min(sy + g, y_end)
+                for yy in range(sy - oy, sy_end - oy):
+                    for xx in range(sx - ox, sx_end - ox):
+                        fine[yy, xx] = 0.0
+                for j in range(m):
+                    px, py = ix[k, j], iy[k, j]
+                    for dy in range(sy, sy_end):
+                        cy = py + dy
+                        if cy < 0 or cy >= h:
+                            continue
+                        for dx in range(sx, sx_end):
+                            cx = px + dx
+                            if 0 <= cx < w:
+                                fine[dy - oy, dx - ox] += values[cy, cx]
         for dx in range(ox, x_end):
+            u = (dx - ox) // g
             for dy in range(oy, y_end):
+                if not live[(dy - oy) // g, u]:
+                    continue
                 pen = angle_penalty[k] - linear_penalty * (dx * dx + dy * dy)
                 if pen <= 0.0:
                     continue
@@ -244,6 +318,28 @@ def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, ix: IntArra
                 if s > best:
                     best_k, best_x, best_y, best = k, dx, dy, s
     return best_k, best_x, best_y, best
+
+
+def _coarse_table_python(values: FloatArray, factor: int
+                         ) -> FloatArray:  # pragma: no cover - compiled by numba
+    """:meth:`LikelihoodField.coarse`'s table: ``C[R, C] = max(L[R − f + 1 : R + 1,
+    C − f + 1 : C + 1])`` (0 outside ``L``), shape ``(h + 2f − 2, w + 2f − 2)``; the
+    maximum along rows first, then along columns (a maximum is exact in any order)."""
+    h, w = values.shape
+    f = factor
+    along = np.zeros((h, w + 2 * (f - 1)))
+    for r in range(h):
+        for shift in range(f):
+            for c in range(w):
+                if values[r, c] > along[r, c + shift]:
+                    along[r, c + shift] = values[r, c]
+    out = np.zeros((h + 2 * (f - 1), w + 2 * (f - 1)))
+    for r in range(h):
+        for shift in range(f):
+            for c in range(w + 2 * (f - 1)):
+                if along[r, c] > out[r + shift, c]:
+                    out[r + shift, c] = along[r, c]
+    return out
 
 
 def _smear_python(values: FloatArray, cells: IntArray, kernel: FloatArray
@@ -267,13 +363,14 @@ _COMPILED: tuple = ()
 
 
 def _compiled() -> tuple:
-    """The three loops compiled once (``cache=True``: later sessions load them from disk)."""
+    """The loops compiled once (``cache=True``: later sessions load them from disk)."""
     global _COMPILED
     if not _COMPILED:
         import numba
 
         jit = numba.njit(cache=True, nogil=True)
-        _COMPILED = (jit(_smear_python), jit(_scores_python), jit(_branch_and_bound_python))
+        _COMPILED = (jit(_smear_python), jit(_scores_python), jit(_branch_and_bound_python),
+                     jit(_coarse_table_python))
     return _COMPILED
 
 
@@ -356,8 +453,9 @@ def correlative_match(source: ArrayLike, reference: LikelihoodField, initial: Ar
                                dtype=np.float64)
     linear_penalty = penalty / half**2
     if method == "numba":
-        best = _compiled()[2](reference.values, reference.coarse(f), ix, iy, half, f,
-                              angle_penalty, linear_penalty)
+        g = (f + 1) // 2
+        best = _compiled()[2](reference.values, reference.coarse(f), reference.coarse(g), ix,
+                              iy, half, f, g, angle_penalty, linear_penalty)
     else:
         best = _search_numpy(reference.values, reference.coarse(f), ix, iy, half, f,
                              angle_penalty, linear_penalty)

@@ -17,6 +17,7 @@ ICRA 2003, which removes beams that contradict the map built so far).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -83,20 +84,56 @@ class FreeSpace:
         self.grid.insert_points(s, e, h)
         self.scans += 1
 
-    def moving(self, points: ArrayLike) -> NDArray[np.bool_]:
+    def moving(self, points: ArrayLike, compiled: bool = True) -> NDArray[np.bool_]:
         """For each point ``(M, 2)`` [m, the grid's frame]: does it lie where every cell
-        within ``margin`` has been seen free?"""
+        within ``margin`` has been seen free? (``compiled=False``: the same answer by numpy,
+        every cell of every point tested; compiled, a point's test stops at its first cell
+        not seen free.)"""
         p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         if self.scans == 0 or len(p) == 0:
             return np.zeros(len(p), dtype=bool)
-        free = self.grid.log_odds < self._l_free
-        rows, cols = free.shape
+        log_odds = self.grid.log_odds
         cells = self.grid.cells(p)
+        if compiled:
+            return np.asarray(_compiled_moving()(log_odds, self._l_free, cells, self._offsets),
+                              dtype=bool)
+        rows, cols = log_odds.shape
         cx = cells[:, 0, None] + self._offsets[None, :, 0]
         cy = cells[:, 1, None] + self._offsets[None, :, 1]
         inside = (cx >= 0) & (cx < cols) & (cy >= 0) & (cy < rows)
-        seen = free[np.clip(cy, 0, rows - 1), np.clip(cx, 0, cols - 1)] & inside
+        free = log_odds[np.clip(cy, 0, rows - 1), np.clip(cx, 0, cols - 1)] < self._l_free
+        seen = free & inside
         return np.asarray(seen.all(axis=1), dtype=bool)
+
+
+def _moving_python(log_odds: FloatArray, l_free: float, cells: NDArray[np.int64],
+                   offsets: NDArray[np.int64]) -> NDArray[np.bool_]:
+    # pragma: no cover - compiled by numba
+    """:meth:`FreeSpace.moving`'s test: every cell ``cells[m] + offsets[k]`` inside the grid
+    with log-odds below ``l_free``."""
+    rows, cols = log_odds.shape
+    out = np.zeros(cells.shape[0], dtype=np.bool_)
+    for m in range(cells.shape[0]):
+        seen = True
+        for k in range(offsets.shape[0]):
+            cx, cy = cells[m, 0] + offsets[k, 0], cells[m, 1] + offsets[k, 1]
+            if cx < 0 or cx >= cols or cy < 0 or cy >= rows or not log_odds[cy, cx] < l_free:
+                seen = False
+                break
+        out[m] = seen
+    return out
+
+
+_COMPILED: list = []
+
+
+def _compiled_moving() -> Callable[..., NDArray[np.bool_]]:
+    """:func:`_moving_python` compiled once (``cache=True``: later sessions load it)."""
+    if not _COMPILED:
+        import numba
+
+        _COMPILED.append(numba.njit(cache=True, nogil=True)(_moving_python))
+    return _COMPILED[0]
 
 
 def laser_beams(pose: ArrayLike, base_to_laser: ArrayLike, ends: FloatArray

@@ -51,7 +51,7 @@ from kit.slam import scan_matching as sm
 from kit.slam.backend import Backend
 from kit.slam.config import SlamConfig
 from kit.slam.free_space import FreeSpace, laser_beams
-from kit.slam.loops import LoopClosure, match_loop
+from kit.slam.loops import LoopClosure, LoopReference, match_loop
 from kit.slam.matching import Match, match_scan, prior_information, refine
 from kit.slam.pose_graph import PoseGraph
 
@@ -229,6 +229,7 @@ class Slam:
         self._reference_key: tuple[int, int] = (-1, -1)
         self._field: tuple[tuple[int, int], FloatArray, correlative.LikelihoodField] | None = None
         self._optimisations = 0
+        self._loop_cache: tuple[range, FloatArray, LoopReference] | None = None
         self._last_closure = -(10**9)
         self._free = FreeSpace(0.05, cfg.dynamic_margin, 0.25, cfg.dynamic_range) \
             if cfg.dynamic_margin > 0 else None
@@ -456,9 +457,8 @@ class Slam:
         chain = range(max(0, candidate - cfg.loop_chain),
                       min(index - 1, candidate + cfg.loop_chain + 1))
         poses = self.graph.poses
-        clouds = [geometry.transform_points(poses[k], self.nodes[k].points) for k in chain]
-        reference = thin(np.vstack(clouds), cfg.point_spacing)
-        if len(reference) < 20:
+        reference = self._loop_reference(chain, poses)
+        if len(reference.points) < 20:
             return False
         record = LoopClosure(index, candidate)
         recent = [geometry.transform_points(poses[k], self.nodes[k].points)
@@ -476,6 +476,19 @@ class Slam:
         if self.backend.propose(record):
             self._optimised()
         return record.accepted
+
+    def _loop_reference(self, chain: range, poses: FloatArray) -> LoopReference:
+        """The scans of the nodes ``chain`` at ``poses``, thinned, as a loop's reference; the
+        last one is reused (with its likelihood field and ICP reference) while its nodes and
+        their poses stay the same."""
+        cached = self._loop_cache
+        if cached is not None and cached[0] == chain and np.array_equal(cached[1], poses[chain]):
+            return cached[2]
+        clouds = [geometry.transform_points(poses[k], self.nodes[k].points) for k in chain]
+        reference = LoopReference(thin(np.vstack(clouds), self.config.point_spacing),
+                                  self.config)
+        self._loop_cache = (chain, poses[chain].copy(), reference)
+        return reference
 
     # ------------------------------------------------------------------ results
     def optimize(self, iterations: int = 20) -> None:

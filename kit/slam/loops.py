@@ -37,7 +37,7 @@ from kit.slam import scan_matching as sm
 if TYPE_CHECKING:
     from kit.slam.config import SlamConfig
 
-__all__ = ["LoopClosure", "agree", "covered_support", "match_loop", "support"]
+__all__ = ["LoopClosure", "LoopReference", "agree", "covered_support", "match_loop", "support"]
 
 FloatArray = NDArray[np.float64]
 
@@ -103,18 +103,47 @@ def covered_support(points: FloatArray, ref: sm.PointCloudReference, pose: Float
     return float(np.mean(d[covered] <= within)), float(np.mean(covered))
 
 
-def match_loop(record: LoopClosure, source: FloatArray, reference: FloatArray,
+class LoopReference:
+    """The scans around a loop-closure candidate (points in ``map``, ``(M, 2)``) and what the
+    two matchers make of them — the likelihood field and the ICP reference — each built when
+    first needed and kept: successive nodes often search the same candidate's scans."""
+
+    def __init__(self, points: FloatArray, cfg: SlamConfig) -> None:
+        self.points = points
+        self.config = cfg
+        self._field: correlative.LikelihoodField | None = None
+        self._icp: sm.PointCloudReference | None = None
+
+    def field(self) -> correlative.LikelihoodField:
+        """The correlative search's likelihood field (``loop_resolution``)."""
+        if self._field is None:
+            cfg = self.config
+            self._field = correlative.likelihood_field(
+                self.points, cfg.loop_resolution, cfg.loop_resolution,
+                margin=cfg.loop_linear_window + 0.5)
+        return self._field
+
+    def icp(self) -> sm.PointCloudReference:
+        """The points with their normals and k-d tree, for ICP and the support tests."""
+        if self._icp is None:
+            self._icp = sm.PointCloudReference(self.points, self.config.icp)
+        return self._icp
+
+
+def match_loop(record: LoopClosure, source: FloatArray, reference: FloatArray | LoopReference,
                estimate: FloatArray, recent: FloatArray, travel: float, cfg: SlamConfig
                ) -> sm.MatchResult | None:
     """Search ``source`` (the node's points, ``base``) around ``estimate`` (its ``T_map_base``)
-    against ``reference`` (the candidate's scans, ``map``), through the gates above; fills
-    ``record`` and returns the refined match, or ``None`` with ``record.reason`` set.
+    against ``reference`` (the candidate's scans, ``map``: points or a :class:`LoopReference`
+    made with the same ``cfg``), through the gates above; fills ``record`` and returns the
+    refined match, or ``None`` with ``record.reason`` set.
 
     ``recent`` are the last nodes' points in ``map`` (moved by the estimate's correction for
     the map test); ``travel`` is the driving [m] since the candidate.
     """
-    field_ = correlative.likelihood_field(reference, cfg.loop_resolution, cfg.loop_resolution,
-                                          margin=cfg.loop_linear_window + 0.5)
+    loop_ref = reference if isinstance(reference, LoopReference) else \
+        LoopReference(reference, cfg)
+    field_ = loop_ref.field()
     coarse = correlative.correlative_match(source, field_, estimate, cfg.loop_linear_window,
                                            cfg.loop_angular_window, math.radians(0.5),
                                            coarse_factor=8, penalty=0.1)
@@ -126,7 +155,7 @@ def match_loop(record: LoopClosure, source: FloatArray, reference: FloatArray,
     if spread > cfg.loop_max_variance:
         record.reason = f"variance {spread:.3f} m² > {cfg.loop_max_variance}"
         return None
-    ref = sm.PointCloudReference(reference, cfg.icp)
+    ref = loop_ref.icp()
     if ref.tree is None:
         record.reason = "no reference surfaces"
         return None

@@ -292,7 +292,9 @@ class PoseGraph:
         index = len(self._poses)
         self._poses.append(p.copy())
         self.ids.append(index if node_id is None else int(node_id))
-        self._cache.pop("poses", None)
+        stacked = self._cache.pop("poses", None)
+        if stacked is not None and len(stacked) == index:  # one row more, not all restacked
+            self._cache["poses"] = np.vstack([stacked, p[None]])
         return index
 
     def add_edge(self, i: int, j: int, measurement: ArrayLike, information: ArrayLike,
@@ -344,7 +346,12 @@ class PoseGraph:
         self._edges.append((ii, jj, z.copy(), omega.copy(),
                             np.full(m, KERNELS.index(kernel), dtype=np.int64),
                             np.full(m, float(delta))))
-        self._cache.clear()
+        self._edges_changed()
+
+    def _edges_changed(self) -> None:
+        """Forget what was derived from the edges (the poses stay)."""
+        for key in ("edges", "structure", "solver"):
+            self._cache.pop(key, None)
 
     # ------------------------------------------------------------------ arrays
     @property
@@ -382,6 +389,7 @@ class PoseGraph:
                            np.zeros((0, 3, 3)), np.zeros(0, np.int64), np.zeros(0))]
             arrays = tuple(np.concatenate([b[k] for b in blocks]) for k in range(6))
             self._cache["edges"] = arrays
+            self._edges = [arrays]  # one block: the next edges are joined to it alone
         return arrays[0], arrays[1], arrays[2], arrays[3]
 
     def _kernels(self) -> tuple[IntArray, FloatArray]:
@@ -436,7 +444,7 @@ class PoseGraph:
         keep[drop] = False
         arrays = self._cache["edges"]
         self._edges = [tuple(a[keep] for a in arrays)]
-        self._cache.clear()
+        self._edges_changed()
 
     def cost(self, poses: FloatArray | None = None, robust: bool = True) -> float:
         """``Σ ρ(eᵀ Ω e)``: the objective :meth:`optimize` minimises (``robust=False``: the

@@ -10,7 +10,7 @@ import pytest
 
 from kit import geometry, maps
 from kit.cli import main as kit_main
-from kit.slam import carmen, correlative, frontend, offline
+from kit.slam import carmen, correlative, frontend, loops, offline
 from kit.slam.frontend import thin
 
 ROOM = np.array([[0, 0], [12, 0], [12, 6], [7, 6], [7, 3.5], [5, 3.5], [5, 6], [0, 6]], float)
@@ -284,3 +284,35 @@ def test_thinning_keeps_each_cells_first_point_as_numpys_row_unique_finds_it():
     field = correlative.likelihood_field(points, 0.05, 0.05, margin=0.3)
     again = correlative.likelihood_field(points[::-1], 0.05, 0.05, margin=0.3)
     assert np.array_equal(field.values, again.values)
+
+
+def test_a_loops_reference_is_reused_while_its_nodes_stay_and_the_closures_are_the_same(
+        tmp_path, monkeypatch):
+    """Successive nodes often search the same candidate's scans: their reference (with its
+    likelihood field and ICP reference) is built once while those nodes' poses stay, and the
+    SLAM's closures and trajectory are those of building it for every search."""
+    write_log(tmp_path / "room.log", route(), np.random.default_rng(0))
+    log = carmen.read_carmen(tmp_path / "room.log")
+    searches, built = [], []
+    search, build = frontend.Slam._loop_reference, loops.LoopReference.__init__
+    monkeypatch.setattr(frontend.Slam, "_loop_reference",
+                        lambda self, *a: searches.append(1) or search(self, *a))
+    monkeypatch.setattr(loops.LoopReference, "__init__",
+                        lambda self, *a: built.append(1) or build(self, *a))
+    reused = offline.run_carmen(log)
+    assert 0 < len(built) < len(searches)
+
+    def fresh(self, *args):
+        self._loop_cache = None
+        return search(self, *args)
+
+    monkeypatch.setattr(frontend.Slam, "_loop_reference", fresh)
+    rebuilt = offline.run_carmen(log)
+    assert reused.closures and len(reused.closures) == len(rebuilt.closures)
+    for a, b in zip(reused.closures, rebuilt.closures, strict=True):
+        assert (a.node, a.candidate, a.accepted, a.reason, a.reference) == \
+            (b.node, b.candidate, b.accepted, b.reason, b.reference)
+        assert np.array_equal([a.response, a.support, a.chi2], [b.response, b.support, b.chi2],
+                              equal_nan=True)
+        assert np.array_equal(a.measurement, b.measurement)
+    assert np.array_equal(reused.trajectory()[1], rebuilt.trajectory()[1])
