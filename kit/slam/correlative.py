@@ -28,8 +28,9 @@ Poses are ``T_reference_source``: the source points' frame in the reference fram
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -173,29 +174,16 @@ def _scores_python(values: FloatArray, ix: IntArray, iy: IntArray, k: IntArray, 
     return out
 
 
-def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, sub: FloatArray,
-                             ix: IntArray, iy: IntArray, half: int, factor: int,
-                             sub_factor: int, angle_penalty: FloatArray, linear_penalty: float
-                             ) -> tuple[int, int, int, float]:
-    # pragma: no cover - compiled by numba
-    """The best ``(angle index, dx, dy [cells], score)`` over angles and offsets in
-    ``[−half, half]²``: blocks of ``factor²`` offsets scored on ``coarse`` (an upper bound,
-    the penalty taken at the block's offset nearest the guess), best bound first; a block's
-    fine offsets are scored only while its bound beats the best score found.
-
-    Each sum runs over the points in their order (``j`` ascending), point by point for all
-    offsets at once; the offsets are then taken in the order a block lists them, and the
-    first that beats the best score found so far becomes the best.
-
-    Inside a block, its 2 × 2 sub-blocks of ``sub_factor²`` offsets (``sub_factor`` =
-    ⌈factor / 2⌉; those past the window's edge are cut short) are first bounded the same way
-    on ``sub``, the coarse table of ``sub_factor``, and only those whose bound beats the best
-    score at the block's start are scored. A sum of larger terms in the same order is never
-    smaller in floating point, nor is it after the same division and a larger penalty, so
-    an offset skipped could not have beaten the best: the answer is the one scoring every
-    offset of the block gives, to the bit (ties included)."""
+def _block_bounds_python(coarse: FloatArray, ix: IntArray, iy: IntArray, half: int,
+                         factor: int, angle_penalty: FloatArray, linear_penalty: float
+                         ) -> FloatArray:  # pragma: no cover - compiled by numba
+    """Every block's bound, ``bound[(k nb + a) nb + b]`` for angle ``k`` and the block at x
+    and y offsets ``starts[a]``, ``starts[b]`` (``starts`` from ``−half`` in steps of
+    ``factor``, ``nb`` of them): the mean of ``coarse`` at the moved points times the penalty
+    at the block's offset nearest the guess. Each sum runs over the points in their order
+    (``j`` ascending), point by point for all blocks at once."""
     k_count, m = ix.shape
-    f, g = factor, sub_factor
+    f = factor
     starts = np.arange(-half, half + 1, f)
     nb = len(starts)
     ch, cw = coarse.shape
@@ -238,10 +226,82 @@ def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, sub: FloatA
                 ny = 0 if oy <= 0 < oy + f else min(abs(oy), abs(oy + f - 1))
                 pen = angle_penalty[k] - linear_penalty * (nx * nx + ny * ny)
                 bound[(k * nb + a) * nb + b] = sums[k, b, a] / m * max(pen, 0.0)
+    return bound
+
+
+def _live_sub_blocks_python(sub: FloatArray, ix: IntArray, iy: IntArray, k: int, ox: int,
+                            oy: int, x_end: int, y_end: int, g: int, angle_penalty: FloatArray,
+                            linear_penalty: float, best: float, live: NDArray[np.bool_]
+                            ) -> bool:  # pragma: no cover - compiled by numba
+    """Which of the block's 2 × 2 sub-blocks (``live[v, u]``: the one at ``(ox + u g,
+    oy + v g)``, cut short at ``x_end``, ``y_end``) have a bound on ``sub`` that beats
+    ``best``; True if any does. The four sums run over the points in their order."""
+    m = ix.shape[1]
+    sh, sw = sub.shape
+    s00 = s01 = s10 = s11 = 0.0             # the sub-blocks' bound sums, s[v][u]
+    for j in range(m):
+        cx = ix[k, j] + g - 1 + ox
+        cy = iy[k, j] + g - 1 + oy
+        if 0 <= cx and cx + g < sw and 0 <= cy and cy + g < sh:
+            s00 += sub[cy, cx]
+            s01 += sub[cy, cx + g]
+            s10 += sub[cy + g, cx]
+            s11 += sub[cy + g, cx + g]
+        else:
+            in_y0 = 0 <= cy < sh
+            in_y1 = 0 <= cy + g < sh
+            in_x0 = 0 <= cx < sw
+            in_x1 = 0 <= cx + g < sw
+            if in_y0 and in_x0:
+                s00 += sub[cy, cx]
+            if in_y0 and in_x1:
+                s01 += sub[cy, cx + g]
+            if in_y1 and in_x0:
+                s10 += sub[cy + g, cx]
+            if in_y1 and in_x1:
+                s11 += sub[cy + g, cx + g]
+    any_live = False
+    for v in range(2):
+        for u in range(2):
+            sx, sy = ox + u * g, oy + v * g
+            if sx >= x_end or sy >= y_end:
+                live[v, u] = False
+                continue
+            ssum = (s00 if u == 0 else s01) if v == 0 else (s10 if u == 0 else s11)
+            nx = 0 if sx <= 0 < sx + g else min(abs(sx), abs(sx + g - 1))
+            ny = 0 if sy <= 0 < sy + g else min(abs(sy), abs(sy + g - 1))
+            pen = angle_penalty[k] - linear_penalty * (nx * nx + ny * ny)
+            live[v, u] = pen > 0.0 and ssum / m * pen > best
+            any_live = any_live or live[v, u]
+    return any_live
+
+
+def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, sub: FloatArray,
+                             ix: IntArray, iy: IntArray, half: int, factor: int,
+                             sub_factor: int, angle_penalty: FloatArray, linear_penalty: float
+                             ) -> tuple[int, int, int, float]:
+    # pragma: no cover - compiled by numba
+    """The best ``(angle index, dx, dy [cells], score)`` over angles and offsets in
+    ``[−half, half]²``: blocks of ``factor²`` offsets scored on ``coarse`` (an upper bound,
+    :func:`_block_bounds_python`), best bound first; a block's fine offsets are scored only
+    while its bound beats the best score found, in the order a block lists them, and the
+    first that beats the best score found so far becomes the best.
+
+    Inside a block, its 2 × 2 sub-blocks of ``sub_factor²`` offsets (``sub_factor`` =
+    ⌈factor / 2⌉; those past the window's edge are cut short) are first bounded the same way
+    on ``sub``, the coarse table of ``sub_factor``, and only those whose bound beats the best
+    score at the block's start are scored (:func:`_live_sub_blocks_python`). A sum of larger
+    terms in the same order is never smaller in floating point, nor is it after the same
+    division and a larger penalty, so an offset skipped could not have beaten the best: the
+    answer is the one scoring every offset of the block gives, to the bit (ties included)."""
+    k_count, m = ix.shape
+    f, g = factor, sub_factor
+    starts = np.arange(-half, half + 1, f)
+    nb = len(starts)
+    bound = _block_bounds(coarse, ix, iy, half, f, angle_penalty, linear_penalty)
     order = np.argsort(-bound)
     best_k, best_x, best_y, best = k_count // 2, 0, 0, -1.0
     h, w = values.shape
-    sh, sw = sub.shape
     fine = np.zeros((f, f))                     # [dy − oy, dx − ox]
     live = np.zeros((2, 2), dtype=np.bool_)     # [v, u]: sub-block (oy + v g, ox + u g)
     for n in order:
@@ -250,42 +310,8 @@ def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, sub: FloatA
         k = n // (nb * nb)
         ox, oy = starts[(n // nb) % nb], starts[n % nb]
         x_end, y_end = min(ox + f, half + 1), min(oy + f, half + 1)
-        s00 = s01 = s10 = s11 = 0.0             # the sub-blocks' bound sums, s[v][u]
-        for j in range(m):
-            cx = ix[k, j] + g - 1 + ox
-            cy = iy[k, j] + g - 1 + oy
-            if 0 <= cx and cx + g < sw and 0 <= cy and cy + g < sh:
-                s00 += sub[cy, cx]
-                s01 += sub[cy, cx + g]
-                s10 += sub[cy + g, cx]
-                s11 += sub[cy + g, cx + g]
-            else:
-                in_y0 = 0 <= cy < sh
-                in_y1 = 0 <= cy + g < sh
-                in_x0 = 0 <= cx < sw
-                in_x1 = 0 <= cx + g < sw
-                if in_y0 and in_x0:
-                    s00 += sub[cy, cx]
-                if in_y0 and in_x1:
-                    s01 += sub[cy, cx + g]
-                if in_y1 and in_x0:
-                    s10 += sub[cy + g, cx]
-                if in_y1 and in_x1:
-                    s11 += sub[cy + g, cx + g]
-        any_live = False
-        for v in range(2):
-            for u in range(2):
-                sx, sy = ox + u * g, oy + v * g
-                if sx >= x_end or sy >= y_end:
-                    live[v, u] = False
-                    continue
-                ssum = (s00 if u == 0 else s01) if v == 0 else (s10 if u == 0 else s11)
-                nx = 0 if sx <= 0 < sx + g else min(abs(sx), abs(sx + g - 1))
-                ny = 0 if sy <= 0 < sy + g else min(abs(sy), abs(sy + g - 1))
-                pen = angle_penalty[k] - linear_penalty * (nx * nx + ny * ny)
-                live[v, u] = pen > 0.0 and ssum / m * pen > best
-                any_live = any_live or live[v, u]
-        if not any_live:
+        if not _live_sub_blocks(sub, ix, iy, k, ox, oy, x_end, y_end, g, angle_penalty,
+                                linear_penalty, best, live):
             continue
         for v in range(2):
             for u in range(2):
@@ -318,6 +344,12 @@ def _branch_and_bound_python(values: FloatArray, coarse: FloatArray, sub: FloatA
                 if s > best:
                     best_k, best_x, best_y, best = k, dx, dy, s
     return best_k, best_x, best_y, best
+
+
+# what the search calls: the plain functions until _compiled() puts the compiled ones here,
+# before it compiles the search (numba reads them from the module when it compiles it)
+_block_bounds: Callable[..., Any] = _block_bounds_python
+_live_sub_blocks: Callable[..., Any] = _live_sub_blocks_python
 
 
 def _coarse_table_python(values: FloatArray, factor: int
@@ -364,11 +396,12 @@ _COMPILED: tuple = ()
 
 def _compiled() -> tuple:
     """The loops compiled once (``cache=True``: later sessions load them from disk)."""
-    global _COMPILED
+    global _COMPILED, _block_bounds, _live_sub_blocks
     if not _COMPILED:
         import numba
 
         jit = numba.njit(cache=True, nogil=True)
+        _block_bounds, _live_sub_blocks = jit(_block_bounds_python), jit(_live_sub_blocks_python)
         _COMPILED = (jit(_smear_python), jit(_scores_python), jit(_branch_and_bound_python),
                      jit(_coarse_table_python))
     return _COMPILED
