@@ -1,5 +1,5 @@
 """Shared fixtures: where ../shared/data is, and a marker for tests that need it; a result
-computed once for both test workers; and hypothesis set up to judge examples, never the
+computed once for all test workers; and hypothesis set up to judge examples, never the
 machine's speed."""
 
 from __future__ import annotations
@@ -93,10 +93,10 @@ def once_for_all_workers(tmp_path_factory: pytest.TempPathFactory
     """``once(key, compute)``: ``compute()``'s value, computed by one test process of the run.
 
     A module-scoped fixture is made once per pytest-xdist worker that runs one of its tests,
-    so an expensive one (a class graded under a sandbox layer) was made twice when both
-    workers took some of its tests. The first worker to ask computes the value under an
-    exclusive lock and leaves it pickled in the run's shared temporary folder; the other
-    waits for the lock and loads it. A ``compute`` that raises leaves nothing, and the next
+    so an expensive one (a class graded under a sandbox layer) was made again by every worker
+    that took some of its tests. The first worker to ask computes the value under an
+    exclusive lock and leaves it pickled in the run's shared temporary folder; the others
+    wait for the lock and load it. A ``compute`` that raises leaves nothing, and the next
     worker to ask computes again. Paths in the value stay valid: no worker's temporary folder
     is removed before the run ends. Without xdist it is ``compute()``."""
     if "PYTEST_XDIST_WORKER" not in os.environ:
