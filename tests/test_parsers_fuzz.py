@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hardware.emulators.__main__ import DEVICES, make_device
+from hardware.emulators.core import Clock
 from kit.drivers import bno055, lms2xx, odrive, os5000, rplidar
 from kit.drivers.checksums import crc16_sick
 from kit.drivers.errors import ChecksumError, DeviceError, DeviceTimeout, ProtocolError
@@ -98,20 +99,14 @@ class _Scripted:
         return self.port.read(min(size, self.port.in_waiting))
 
 
-class _Ticks:
-    """A logical clock that moves a millisecond each time it is read (and by what ``sleep``
-    is given): a driver's time-out ends after as many reads as it would take on a real line,
-    without the wall-clock wait."""
-
-    def __init__(self) -> None:
-        self.now = 0.0
+class _Ticks(Clock):
+    """The emulators' logical clock, moved on a millisecond each time it is read as well: with
+    a port that never blocks, a driver's time-out ends after as many reads as it would take
+    on a real line, without the wall-clock wait."""
 
     def __call__(self) -> float:
         self.now += 0.001
         return self.now
-
-    def sleep(self, seconds: float) -> None:
-        self.now += max(0.0, seconds)
 
 
 @settings(max_examples=100, deadline=None)
