@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from kit.slam import carmen, evaluate, offline
+from kit.slam.frontend import Slam
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 LOGS = {
@@ -37,8 +38,9 @@ LOGS = {
 """log file, relations, bar on the mean translational error [m], runs with noise seeds."""
 
 
-def run(name: str, seed: int | None) -> tuple[float, str]:
-    """One run; returns its mean error [m] and a printed line."""
+def slam_run(name: str, seed: int | None) -> tuple[Slam, carmen.Relations, float]:
+    """``kit slam``'s pipeline on log ``name`` (as-is, or with ``seed``'s odometry error): the
+    SLAM, the log's relations and the run's CPU time [s]."""
     log_file, relations_file, _, _ = LOGS[name]
     log = carmen.read_carmen(DATA / log_file)
     relations = carmen.read_relations(DATA / relations_file)
@@ -46,7 +48,12 @@ def run(name: str, seed: int | None) -> tuple[float, str]:
         np.array([r.robot_pose for r in log.lasers]), seed)
     start = time.process_time()
     slam = offline.run_carmen(log, odometry=odometry)
-    cpu = time.process_time() - start
+    return slam, relations, time.process_time() - start
+
+
+def run(name: str, seed: int | None) -> tuple[float, str]:
+    """One run; returns its mean error [m] and a printed line."""
+    slam, relations, cpu = slam_run(name, seed)
     stamps, poses = slam.trajectory()
     errors = evaluate.relation_errors(stamps, poses, relations)
     every = evaluate.summarize(errors)

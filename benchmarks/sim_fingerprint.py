@@ -41,7 +41,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import math
-import struct
 import sys
 import time
 from collections.abc import Callable
@@ -49,38 +48,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from fingerprint import feed
 
 from kit import msgs
 from sim.simulation import Physics, Simulation
-
-
-def _feed(h: Any, value: Any) -> None:
-    """Feed ``value`` to the hash ``h`` canonically: its type and its exact bits."""
-    if isinstance(value, msgs.Message):
-        h.update(b"M" + type(value).__name__.encode())
-        for name, field_value in vars(value).items():
-            h.update(b"f" + name.encode())
-            _feed(h, field_value)
-    elif isinstance(value, np.ndarray):
-        h.update(b"A" + value.dtype.str.encode() + repr(value.shape).encode())
-        h.update(np.ascontiguousarray(value).tobytes())
-    elif isinstance(value, (tuple, list)):
-        h.update(b"T" if isinstance(value, tuple) else b"L")
-        h.update(struct.pack("<q", len(value)))
-        for item in value:
-            _feed(h, item)
-    elif isinstance(value, (bool, np.bool_)):
-        h.update(b"B" + type(value).__name__.encode() + (b"1" if value else b"0"))
-    elif isinstance(value, (int, np.integer)):
-        h.update(b"I" + type(value).__name__.encode() + str(int(value)).encode() + b";")
-    elif isinstance(value, (float, np.floating)):
-        h.update(b"F" + type(value).__name__.encode() + struct.pack("<d", float(value)))
-    elif isinstance(value, str):
-        h.update(b"S" + struct.pack("<q", len(value)) + value.encode())
-    elif value is None:
-        h.update(b"N")
-    else:
-        raise TypeError(f"no canonical form for {type(value).__name__}: {value!r}")
 
 
 def _twist(v: float, w: float) -> msgs.Twist:
@@ -111,26 +82,26 @@ def _schedule(n_robots: int, step: int) -> dict[int, Any] | None:
 
 
 def _record(h: Any, sim: Simulation, out: list[tuple[str, Any]]) -> None:
-    _feed(h, sim.time)
+    feed(h, sim.time)
     for topic, message in out:
-        _feed(h, topic)
-        _feed(h, message)
+        feed(h, topic)
+        feed(h, message)
         if topic.endswith("/scan"):   # the float64 ranges the scan was made from
             index = int(topic[6:-5]) if topic.startswith("/robot") else 0
             lidar = sim.robots[index].lidar
-            _feed(h, None if lidar is None else lidar.last_ranges)
+            feed(h, None if lidar is None else lidar.last_ranges)
     for i, r in enumerate(sim.robots):
-        _feed(h, r.xy_yaw)
-        _feed(h, (r.forward_speed, r.yaw_rate, r.world_velocity, r.accel, r.yaw_accel))
-        _feed(h, (tuple(r.speeds), tuple(r.angles)))
-        _feed(h, sim.encoder_ticks(i))
+        feed(h, r.xy_yaw)
+        feed(h, (r.forward_speed, r.yaw_rate, r.world_velocity, r.accel, r.yaw_accel))
+        feed(h, (tuple(r.speeds), tuple(r.angles)))
+        feed(h, sim.encoder_ticks(i))
         truth = sim.ground_truth(i)
-        _feed(h, (truth.time, truth.pose, truth.velocity, truth.wheel_slip, truth.in_oil))
+        feed(h, (truth.time, truth.pose, truth.velocity, truth.wheel_slip, truth.in_oil))
     if sim.people or sim.bystanders:
-        _feed(h, sim.people_positions())
-    _feed(h, len(sim.collisions))
+        feed(h, sim.people_positions())
+    feed(h, len(sim.collisions))
     for c in sim.collisions:
-        _feed(h, (c.time, c.robot, c.other))
+        feed(h, (c.time, c.robot, c.other))
 
 
 def run_scene(make: Callable[[], Simulation], seconds: float) -> tuple[str, int, int]:

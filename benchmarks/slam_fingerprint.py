@@ -35,83 +35,42 @@ import argparse
 import hashlib
 import json
 import os
-import struct
 import sys
-import time
 from pathlib import Path
-from typing import Any
 
-import numpy as np
+from bench_slam_logs import DATA, slam_run
+from fingerprint import feed
 
-from kit.slam import carmen, evaluate, offline
+from kit.slam import evaluate
 from kit.slam.frontend import Slam
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
-LOGS = {
-    "intel": ("flirtlib-carmen-graph-logs/intel-lab.log.gz",
-              "kummerle2009-slam-benchmark/intel.relations", (1, 2, 3, 4, 5)),
-    "fr079": ("flirtlib-carmen-graph-logs/fr079.log.gz",
-              "kummerle2009-slam-benchmark/fr079.relations", (1, 2, 3, 4, 5)),
-    "csail": ("kummerle2009-slam-benchmark/mit-csail.clf.gz",
-              "kummerle2009-slam-benchmark/mit-csail.relations", ()),
-}
-"""log file, relations, noise seeds (besides the run as-is)."""
+RUNS = {"intel": (1, 2, 3, 4, 5), "fr079": (1, 2, 3, 4, 5), "csail": ()}
+"""Each log's noise seeds (besides the run as-is); the logs are ``bench_slam_logs``'s."""
 
 EXPECTED = Path(__file__).with_suffix(".json")
 """The rows of ``main`` at c6bdd40, before the SLAM was made faster (its ``rows``): what
 ``--check`` compares with by default."""
 
 
-def _feed(h: Any, value: Any) -> None:
-    """Feed ``value`` to the hash ``h`` canonically: its type and its exact bits."""
-    if isinstance(value, np.ndarray):
-        h.update(b"A" + value.dtype.str.encode() + repr(value.shape).encode())
-        h.update(np.ascontiguousarray(value).tobytes())
-    elif isinstance(value, (tuple, list)):
-        h.update(b"T" if isinstance(value, tuple) else b"L")
-        h.update(struct.pack("<q", len(value)))
-        for item in value:
-            _feed(h, item)
-    elif isinstance(value, (bool, np.bool_)):
-        h.update(b"B" + (b"1" if value else b"0"))
-    elif isinstance(value, (int, np.integer)):
-        h.update(b"I" + str(int(value)).encode() + b";")
-    elif isinstance(value, (float, np.floating)):
-        h.update(b"F" + struct.pack("<d", float(value)))
-    elif isinstance(value, str):
-        h.update(b"S" + struct.pack("<q", len(value)) + value.encode())
-    elif value is None:
-        h.update(b"N")
-    else:
-        raise TypeError(f"no canonical form for {type(value).__name__}: {value!r}")
-
-
 def digest(slam: Slam) -> str:
     """The SHA-256 of everything a SLAM run produced (see the module docstring)."""
     h = hashlib.sha256()
     stamps, poses = slam.trajectory()
-    _feed(h, (stamps, poses))
+    feed(h, (stamps, poses))
     for r in slam.records:
-        _feed(h, (r.stamp, r.anchor, r.offset, r.odometry, r.matched, r.moving))
-    _feed(h, (slam.graph.poses, *slam.graph.edges()))
+        feed(h, (r.stamp, r.anchor, r.offset, r.odometry, r.matched, r.moving))
+    feed(h, (slam.graph.poses, *slam.graph.edges()))
     for c in slam.closures:
-        _feed(h, (c.node, c.candidate, c.accepted, c.reason, c.response, c.support,
-                  c.recent_support, c.shift, c.reference, c.surprise, c.chi2, c.group,
-                  c.measurement, c.covariance))
-    _feed(h, list(slam.replaced_matches))
+        feed(h, (c.node, c.candidate, c.accepted, c.reason, c.response, c.support,
+                 c.recent_support, c.shift, c.reference, c.surprise, c.chi2, c.group,
+                 c.measurement, c.covariance))
+    feed(h, list(slam.replaced_matches))
     return h.hexdigest()
 
 
 def run(name: str, seed: int | None) -> tuple[str, float]:
     """One run's row (``name:label digest mean=…``) and its CPU time [s]."""
-    log_file, relations_file, _ = LOGS[name]
-    log = carmen.read_carmen(DATA / log_file)
-    relations = carmen.read_relations(DATA / relations_file)
-    odometry = None if seed is None else evaluate.perturb_odometry(
-        np.array([r.robot_pose for r in log.lasers]), seed)
-    start = time.process_time()
-    slam = offline.run_carmen(log, odometry=odometry)
-    cpu = time.process_time() - start
+    slam, relations, cpu = slam_run(name, seed)
     summary = evaluate.summarize(evaluate.relation_errors(*slam.trajectory(), relations))
     label = "as-is" if seed is None else str(seed)
     return (f"{name}:{label} {digest(slam)} mean={summary.translational_mean:.6f} "
@@ -119,7 +78,7 @@ def run(name: str, seed: int | None) -> tuple[str, float]:
 
 
 def all_runs() -> list[str]:
-    return [f"{name}:{label}" for name, (_, _, seeds) in LOGS.items()
+    return [f"{name}:{label}" for name, seeds in RUNS.items()
             for label in ["as-is", *map(str, seeds)]]
 
 
