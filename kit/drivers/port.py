@@ -76,12 +76,20 @@ def port_errors() -> tuple[type[BaseException], ...]:
 
 
 def _errno_of(exc: BaseException) -> int | None:
-    number = getattr(exc, "errno", None)
-    if isinstance(number, int):
-        return number
-    args = getattr(exc, "args", ())
-    if args and isinstance(args[0], int):  # termios.error carries (errno, text)
-        return int(args[0])
+    """The operating system's error number behind ``exc``: its own, or that of the error it
+    was raised from or while handling (pyserial's ``read`` turns an ``OSError`` into a
+    ``SerialException("read failed: [Errno 5] ...")`` that carries no number itself)."""
+    seen: set[int] = set()
+    at: BaseException | None = exc
+    while at is not None and id(at) not in seen:
+        seen.add(id(at))
+        number = getattr(at, "errno", None)
+        if isinstance(number, int):
+            return number
+        args = getattr(at, "args", ())
+        if args and isinstance(args[0], int):  # termios.error carries (errno, text)
+            return int(args[0])
+        at = at.__cause__ or at.__context__
     return None
 
 

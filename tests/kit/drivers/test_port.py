@@ -58,6 +58,26 @@ def test_termios_error_from_an_unplugged_adapter_says_what_happened():
     assert info.value.errno == errno.EIO
 
 
+class _ReadFailed(_Unplugged):
+    """pyserial's ``read`` when the pseudo-terminal's other side is gone mid-read (seen with
+    a busy machine): the ``OSError`` becomes a ``SerialException`` without an error number."""
+
+    def read(self, size=1):
+        try:
+            raise OSError(errno.EIO, "Input/output error")  # what os.read raised
+        except OSError as e:
+            raise serial.SerialException(f"read failed: {e}")  # noqa: B904 - pyserial's way
+
+
+def test_pyserials_read_failed_keeps_the_error_number_and_its_hint():
+    link = Link("BNO055", _ReadFailed(), 115200)
+    with pytest.raises(PortError, match=r"read data block: the port failed \(read failed: "
+                                        r"\[Errno 5\] Input/output error\): input/output "
+                                        r"error: the device was unplugged") as info:
+        link.read_some("read data block")
+    assert info.value.errno == errno.EIO
+
+
 def test_a_port_that_does_not_exist_is_a_port_error_with_a_hint():
     with pytest.raises(PortError, match=r"DPRALTE: cannot open '/dev/ttyKIT_NONE' at 115200 "
                                         r"baud.*no such port: is the device plugged in"):

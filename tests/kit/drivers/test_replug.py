@@ -85,7 +85,8 @@ def test_the_same_driver_resumes_after_an_unplug_and_replug(name, tmp_path):
         read()
         server.unplug()
         error = failing(read)
-        assert any(why in str(error) for why in ("input/output error", "disconnected", "closed"))
+        assert any(why in str(error) for why in ("input/output error", "disconnected", "closed")), \
+            str(error)
         # reported once: later calls raise the same failure and touch nothing
         with pytest.raises(PortError, match=r"the port failed earlier .*reopen\(\) once the "
                                             r"device is back"):
