@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 import serial
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from hardware.emulators.__main__ import DEVICES, make_device
@@ -134,6 +134,7 @@ def test_drivers_given_garbage_raise_only_documented_errors(reply):
 @pytest.mark.parametrize("name", DEVICES)
 @settings(max_examples=60, deadline=None)
 @given(data=st.binary(max_size=400), split=st.integers(1, 50))
+@example(data=b"\x1b\x00\x80 ", split=1)  # found by this test: the OS5000 echoed no non-ASCII
 def test_emulators_take_any_bytes_without_failing(name, data, split):
     device = make_device(name)
     t = 0.0
@@ -142,6 +143,16 @@ def test_emulators_take_any_bytes_without_failing(name, data, split):
         device.read(t)
         t += 0.001
     device.read(t + 1.0)
+
+
+def test_the_os5000_echoes_a_command_byte_for_byte_ascii_or_not():
+    from hardware.emulators.os5000 import Os5000Emulator
+
+    device = Os5000Emulator(rate=0.0)  # not streaming: only the echoes come back
+    device.feed(b"\x1bR\xe92 ", 0.0)   # not a number: echoed, the rate unchanged
+    assert device.read(1.0) == b"CMD:R\xe92\r\n" and device.rate == 0.0
+    device.feed(b"\x1bX3 ", 1.0)
+    assert device.read(2.0) == b"CMD:X3\r\n" and device.fields == 3
 
 
 def _nodes_stream(rng_seed: int, n: int) -> tuple[list[bytes], list[rplidar.Node]]:

@@ -103,17 +103,19 @@ class Os5000Emulator(Device):
             if not self._command:
                 continue  # bytes outside a command are ignored
             if b in (0x0D, 0x20) and len(self._command) > 2:
-                self._execute(self._command[1:].decode("ascii", "replace"), now)
+                self._execute(bytes(self._command[1:]), now)
                 self._command = bytearray()
             else:
                 self._command.append(b)
                 if len(self._command) == 2 and chr(b) in "V&FCZ$":
-                    self._execute(chr(b), now)
+                    self._execute(bytes((b,)), now)
                     self._command = bytearray()
                 elif len(self._command) > 16:
                     self._command = bytearray()
 
-    def _execute(self, text: str, now: float) -> None:
+    def _execute(self, command: bytes, now: float) -> None:
+        """Run one command (the bytes after ESC) and echo it back, byte for byte."""
+        text = command.decode("ascii", "replace")
         letter, value = text[0], text[1:]
         try:
             number = int(value) if value else None
@@ -131,7 +133,7 @@ class Os5000Emulator(Device):
         elif letter == "V":
             self.send(b"OS5000 Ver 2.0\r\n", now)
             return
-        self.send(f"CMD:{letter}{value}\r\n".encode("ascii"), now)
+        self.send(b"CMD:" + command + b"\r\n", now)  # a byte that is not ASCII echoes as it came
 
     def stream(self, now: float) -> None:
         if self.rate <= 0:
