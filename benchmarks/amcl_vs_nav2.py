@@ -41,7 +41,10 @@ Filters:
   generator with a counter that only grows within a process, so it depends on how many
   filters the process started before (the same for the same command line);
 * ``kit-beam`` — the kit with ``laser_model_type: beam``, the model the package runs: the
-  filters set alike;
+  filters set alike (the expected ranges measured as AMCL's ``map_calc_range`` does, between
+  cell centres: the kit's ``beam_lookup: cells``, its default);
+* ``kit-beam-exact`` — the same with ``beam_lookup: exact`` (each range from the scanner to
+  where the ray enters the blocked cell), the kit's lookup before issue 29's last round;
 * ``kit-lf`` — the kit with Nav2's default model (``likelihood_field``, ``1 + Σ p³``);
 * ``kit-prob`` — the kit with ``likelihood_field_prob`` (the product of the beams'
   likelihoods);
@@ -96,7 +99,7 @@ MOUNT = (0.1, 0.0, math.pi / 2)
 INITIAL_COVARIANCE = (0.25, 0.25, (math.pi / 12) ** 2)
 """Nav2's default initial covariance: variances of x [m²], y [m²], yaw [rad²]."""
 ALPHAS = (0.2, 0.2, 0.2, 0.2)
-KIT_MODELS = {"kit-beam": "beam", "kit-lf": "likelihood_field",
+KIT_MODELS = {"kit-beam": "beam", "kit-beam-exact": "beam", "kit-lf": "likelihood_field",
               "kit-prob": "likelihood_field_prob"}
 NAV2_MODELS = {"nav2-beam": 0, "nav2-lf": 1, "nav2-prob": 2}
 
@@ -355,7 +358,7 @@ class KitFilter:
             alpha1=ALPHAS[0], alpha2=ALPHAS[1], alpha3=ALPHAS[2], alpha4=ALPHAS[3],
             min_particles=particles, max_particles=particles, max_beams=60, z_hit=0.5,
             z_rand=0.5, sigma_hit=0.2, laser_model_type=KIT_MODELS[name],
-            laser_max_range=RANGE_MAX)
+            laser_max_range=RANGE_MAX, beam_lookup="exact" if name.endswith("-exact") else "cells")
         self.node = Amcl(scene.grid, params, seed=seed)
         self.node.initialize(start, np.diag(INITIAL_COVARIANCE))
         self.mount = RigidTransform.from_pose2d(mount)

@@ -26,7 +26,9 @@ effective sample size falls below this share of the particles (1.0 resamples on 
 ``resample_interval``-th update, as Nav2); ``deskew`` (default on) — each beam is placed where
 the scanner was at that beam's own time, by the odometry (:func:`kit.perception.
 scan_to_points_tf`), where Nav2 takes a whole scan from the pose at its stamp: a 5.5 Hz
-RPLidar on a robot turning at 1 rad/s bends its scan by 10° from first to last beam. Not
+RPLidar on a robot turning at 1 rad/s bends its scan by 10° from first to last beam;
+``beam_lookup`` — the beam model's expected ranges as AMCL measures them (``cells``, the
+default) or from the scanner's exact position (``exact``). Not
 implemented: ``do_beamskip`` (refused) and the omnidirectional motion model (refused).
 """
 
@@ -137,6 +139,10 @@ class AmclParameters:
     deskew: bool = True
     """kit: place each beam where the scanner was at that beam's time (the odometry through
     tf), instead of taking the whole scan from the pose at its stamp as Nav2 does."""
+    beam_lookup: str = "cells"
+    """kit: the beam model's expected range — ``cells``, AMCL's ``map_calc_range`` (between
+    cell centres, along Bresenham's line), or ``exact`` (from the scanner to where the ray
+    enters the first blocked cell); see :func:`kit.localization.expected_ranges`."""
 
     def __post_init__(self) -> None:
         for name in ("alpha1", "alpha2", "alpha3", "alpha4", "alpha5", "z_hit", "z_rand",
@@ -159,6 +165,8 @@ class AmclParameters:
         if self.laser_model_type not in ("likelihood_field", "likelihood_field_prob", "beam"):
             raise ValueError(f"laser_model_type is likelihood_field, likelihood_field_prob or "
                              f"beam; got {self.laser_model_type!r}")
+        if self.beam_lookup not in ("cells", "exact"):
+            raise ValueError(f"beam_lookup is cells or exact; got {self.beam_lookup!r}")
         if self.robot_model_type not in _DIFFERENTIAL:
             raise ValueError(f"only the differential-drive motion model is implemented; got "
                              f"robot_model_type {self.robot_model_type!r}")
@@ -386,7 +394,7 @@ class Amcl:
             step = max(1, (len(ranges) - 1) // (p.max_beams - 1))
             r = np.where(ranges <= range_min, range_max, ranges)[::step]
             model = BeamModel(p.z_hit, p.z_short, p.z_max, p.z_rand, p.sigma_hit,
-                              p.lambda_short)
+                              p.lambda_short, p.beam_lookup)  # type: ignore[arg-type]
             return beam_model_weights(self.filter.poses, r, laser.bearings[::step],
                                       laser.position, self.field, model, range_max), \
                 int(np.count_nonzero(~np.isnan(r)))

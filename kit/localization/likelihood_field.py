@@ -23,7 +23,15 @@ measured range ``z`` is compared with that expected range ``z*``:
           + [z < z^*]\\, z_{short} λ e^{-λ z} + [z = r_{max}]\\, z_{max}
           + [z < r_{max}]\\, z_{rand} / r_{max}
 
-combined as ``1 + Σ p_z³`` like AMCL.
+combined as ``1 + Σ p_z³`` like AMCL. The expected range is AMCL's own by default
+(``lookup="cells"``): Bresenham's line from the scanner's cell to the cell ``range_max`` away,
+the range being the distance between the centres of the scanner's cell and the first blocked
+one, so that every particle in a cell with a heading sees the same ranges. ``lookup="exact"``
+measures from the scanner itself to where the ray enters the blocked cell (Amanatides & Woo).
+Side by side with the ``amcl`` package (Nav2's code) on seeded tracks with odometry equal to
+the truth, the exact lookup left the kit 1.14–1.28× Nav2's position error on the TurtleBot3
+maps, AMCL's 0.95–1.04× (``benchmarks/amcl_vs_nav2.py``): within a cell the cell lookup's
+likelihood is flat, and the sharper exact one pulls the estimate about more from scan to scan.
 
 Grid conventions: cell ``(row, col)`` covers ``[col, col + 1) × [row, row + 1)`` resolutions
 from the map's ``info.origin`` (its yaw honoured); a cell is occupied at ``value >= 65``
@@ -68,6 +76,7 @@ OCCUPIED = 65
 FREE_BELOW = 20
 """Grid values in [0, FREE_BELOW) are free (map_server's free_thresh 0.196)."""
 Method = Literal["numba", "numpy"]
+Lookup = Literal["cells", "exact"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -435,27 +444,101 @@ def _cast_numba(grid_poses: FloatArray, angles: FloatArray, max_range: float,
     return out
 
 
+def _cast_cells_python(x: float, y: float, angle: float, max_range: float,
+                       blocked: NDArray[np.bool_], res: float) -> float:
+    """AMCL's ``map_calc_range``: Bresenham's line from the cell of (x, y) (grid frame,
+    metres) to the cell ``max_range`` along ``angle``; the distance between the centres of
+    the start cell and the first blocked cell (or the first off the map) on it, in metres;
+    ``max_range`` if there is none up to one cell past the end."""
+    h, w = blocked.shape
+    x0, y0 = math.floor(x / res), math.floor(y / res)
+    x1 = math.floor((x + max_range * math.cos(angle)) / res)
+    y1 = math.floor((y + max_range * math.sin(angle)) / res)
+    steep = abs(y1 - y0) > abs(x1 - x0)
+    if steep:  # walk along the longer axis: u is the column, or the row when steep
+        x0, y0, x1, y1 = y0, x0, y1, x1
+    du, dv = abs(x1 - x0), abs(y1 - y0)
+    su, sv = (1 if x0 < x1 else -1), (1 if y0 < y1 else -1)
+    u, v, error = x0, y0, 0
+    while True:
+        col, row = (v, u) if steep else (u, v)
+        if not (0 <= row < h and 0 <= col < w) or blocked[row, col]:
+            return math.hypot(u - x0, v - y0) * res
+        if u == x1 + su:
+            return max_range
+        u += su
+        error += dv
+        if 2 * error >= du:
+            v += sv
+            error -= du
+
+
+@njit(cache=True)
+def _cast_cells_numba(grid_poses: FloatArray, angles: FloatArray, max_range: float,
+                      blocked: NDArray[np.bool_], res: float) -> FloatArray:  # pragma: no cover
+    h, w = blocked.shape
+    out = np.empty((grid_poses.shape[0], angles.shape[0]))
+    for i in range(grid_poses.shape[0]):
+        x, y = grid_poses[i, 0], grid_poses[i, 1]
+        cx0, cy0 = int(np.floor(x / res)), int(np.floor(y / res))
+        for j in range(angles.shape[0]):
+            a = grid_poses[i, 2] + angles[j]
+            x0, y0 = cx0, cy0
+            x1 = int(np.floor((x + max_range * np.cos(a)) / res))
+            y1 = int(np.floor((y + max_range * np.sin(a)) / res))
+            steep = abs(y1 - y0) > abs(x1 - x0)
+            if steep:
+                x0, y0 = y0, x0
+                x1, y1 = y1, x1
+            du, dv = abs(x1 - x0), abs(y1 - y0)
+            su = 1 if x0 < x1 else -1
+            sv = 1 if y0 < y1 else -1
+            u, v, error = x0, y0, 0
+            while True:
+                col, row = (v, u) if steep else (u, v)
+                if not (0 <= row < h and 0 <= col < w) or blocked[row, col]:
+                    out[i, j] = math.sqrt((u - x0) ** 2 + (v - y0) ** 2) * res
+                    break
+                if u == x1 + su:
+                    out[i, j] = max_range
+                    break
+                u += su
+                error += dv
+                if 2 * error >= du:
+                    v += sv
+                    error -= du
+    return out
+
+
 def expected_ranges(field_: LikelihoodField, laser_poses: ArrayLike, angles: ArrayLike,
-                    max_range: float, method: Method | Literal["python"] = "numba"
-                    ) -> FloatArray:
+                    max_range: float, method: Method | Literal["python"] = "numba",
+                    lookup: Lookup = "exact") -> FloatArray:
     """Ranges the map predicts: from each scanner pose ``(x, y, θ)`` in ``map`` (shape (3,)
     or (N, 3)) along each beam angle (shape (M,), in the scanner's frame) to the first cell
     that is not free — occupied, unknown or off the map — as AMCL's ``map_calc_range``
     stops. ``max_range`` where nothing is met within it. Shape (M,) or (N, M).
 
-    ``method="python"`` is the plain reference loop.
+    ``lookup="exact"``: the distance from the scanner to where the ray enters that cell;
+    ``"cells"``: AMCL's own, the distance between the centres of the scanner's cell and that
+    cell, along Bresenham's line of cells (the beam model's default). ``method="python"`` is
+    the plain reference loop.
     """
     p = geometry.check_pose(laser_poses, "laser_poses")
     a = np.ascontiguousarray(angles, dtype=np.float64).reshape(-1)
     if not max_range > 0:
         raise ValueError(f"max_range must be positive [m]; got {max_range}")
+    if lookup not in ("cells", "exact"):
+        raise ValueError(f"lookup is 'cells' or 'exact'; got {lookup!r}")
     gp = _grid_poses(p.reshape(-1, 3), field_)
     blocked = np.ascontiguousarray(_blocked(field_))
+    cells = lookup == "cells"
     if method == "numba":
-        out = _cast_numba(gp, a, float(max_range), blocked, field_.resolution)
+        out = (_cast_cells_numba if cells else _cast_numba)(gp, a, float(max_range), blocked,
+                                                            field_.resolution)
     elif method == "python":
-        out = np.array([[_cast_python(float(x), float(y), float(t + b), float(max_range),
-                                      blocked, field_.resolution) for b in a]
+        cast = _cast_cells_python if cells else _cast_python
+        out = np.array([[cast(float(x), float(y), float(t + b), float(max_range), blocked,
+                              field_.resolution) for b in a]
                         for x, y, t in gp])
     else:
         raise ValueError(f"method is 'numba' or 'python'; got {method!r}")
@@ -472,6 +555,8 @@ class BeamModel:
     z_rand: float = 0.5
     sigma_hit: float = 0.2
     lambda_short: float = 0.1
+    lookup: Lookup = "cells"
+    """kit: how the expected range is measured (:func:`expected_ranges`); AMCL's by default."""
 
     def probability(self, z: ArrayLike, z_expected: ArrayLike, range_max: float) -> FloatArray:
         """``p_z`` of measured ranges ``z`` given the map's ``z_expected`` (same shapes)."""
@@ -503,6 +588,6 @@ def beam_model_weights(poses: ArrayLike, ranges: ArrayLike, bearings: ArrayLike,
     z, b = z[keep], b[keep]
     lp = np.asarray(laser_pose, dtype=np.float64)
     lasers = geometry.compose(p, np.array([lp[0], lp[1], 0.0]))
-    expected = expected_ranges(field_, lasers, b, range_max, method)
+    expected = expected_ranges(field_, lasers, b, range_max, method, model.lookup)
     pz = model.probability(z[None, :], expected, range_max)
     return np.log1p(np.sum(pz ** 3, axis=1))

@@ -32,6 +32,8 @@ from kit.tf import RigidTransform
 ROOT = Path(__file__).resolve().parents[3]
 HARNESS = ROOT / "benchmarks" / "amcl_vs_nav2.py"
 SEEDS = {2000: list(range(8)), 10000: list(range(4))}
+MORE_SEEDS = {"turtlebot3-world-nav2": list(range(16))}
+"""A small map's runs are cheap: more seeds, for a steadier mean."""
 RATIO = 1.2
 
 
@@ -44,11 +46,16 @@ def harness() -> ModuleType:
     return module
 
 
-def package_errors(scene: str, particles: int, seeds: list[int], tmp_path: Path
-                   ) -> dict[str, np.ndarray]:
+MAPS = {"turtlebot3-world-nav2": "maps/turtlebot3-world-nav2/map.yaml"}
+"""Scenes that are a map file of ``../shared/data`` (run with the harness's ``--map``)."""
+
+
+def package_errors(scene: str, particles: int, seeds: list[int], tmp_path: Path,
+                   map_file: Path | None = None) -> dict[str, np.ndarray]:
     """The ``amcl`` package's per-scan errors (scans, 3) per seed, from a fresh process."""
     out = tmp_path / f"nav2-{scene}-{particles}.json"
-    subprocess.run([sys.executable, str(HARNESS), "--scenes", scene, "--particles",
+    where = ["--scenes", "", "--map", str(map_file)] if map_file else ["--scenes", scene]
+    subprocess.run([sys.executable, str(HARNESS), *where, "--particles",
                     str(particles), "--seeds", *map(str, seeds), "--filters", "nav2",
                     "--json", str(out)], check=True, capture_output=True, cwd=ROOT)
     table = json.loads(out.read_text(encoding="utf-8"))[f"{scene} {particles}"]
@@ -59,21 +66,24 @@ def package_errors(scene: str, particles: int, seeds: list[int], tmp_path: Path
 @pytest.mark.parametrize("scene, particles", [
     pytest.param("olin", 2000, marks=pytest.mark.dataset),
     pytest.param("olin", 10000, marks=pytest.mark.dataset),
-    ("office", 2000)])
+    ("office", 2000),
+    pytest.param("turtlebot3-world-nav2", 2000, marks=pytest.mark.dataset)])
 def test_kit_amcl_tracks_within_1_2x_of_nav2s_amcl_set_alike(scene, particles, tmp_path,
                                                               request):
     """Mean position and heading error over every scan of every seeded track: the kit's at
     most 1.2× the package's; and the package itself tracks (a broken set-up of the
     reference must not let the kit pass). The issue's bar is on the Olin map at 2,000 and
-    10,000 particles; the office at 2,000 is a second map (``benchmarks/amcl_vs_nav2.py``
-    runs both maps at both counts)."""
+    10,000 particles; the office and Nav2's TurtleBot3 world at 2,000 are two more maps
+    (``benchmarks/amcl_vs_nav2.py`` runs any map at any count)."""
     pytest.importorskip("amcl")
-    if scene == "olin":
-        request.getfixturevalue("shared_data")
+    map_file = None
+    if scene != "office":
+        data = request.getfixturevalue("shared_data")
+        map_file = data / MAPS[scene] if scene in MAPS else None
     bench = harness()
-    seeds = SEEDS[particles]
-    nav2 = package_errors(scene, particles, seeds, tmp_path)
-    world = bench.SCENES[scene]()
+    seeds = MORE_SEEDS.get(scene, SEEDS[particles])
+    nav2 = package_errors(scene, particles, seeds, tmp_path, map_file)
+    world = bench.map_scene(map_file) if map_file else bench.SCENES[scene]()
     kit = {str(seed): bench.run(world, seed, particles, ["kit-beam"])["kit-beam"]
            for seed in seeds}
     nav2_position = np.mean([e[:, 0].mean() for e in nav2.values()])
