@@ -28,10 +28,11 @@ combined as ``1 + Σ p_z³`` like AMCL. The expected range is AMCL's own by defa
 the range being the distance between the centres of the scanner's cell and the first blocked
 one, so that every particle in a cell with a heading sees the same ranges. ``lookup="exact"``
 measures from the scanner itself to where the ray enters the blocked cell (Amanatides & Woo).
-Side by side with the ``amcl`` package (Nav2's code) on seeded tracks with odometry equal to
-the truth, the exact lookup left the kit 1.14–1.28× Nav2's position error on the TurtleBot3
-maps, AMCL's 0.95–1.04× (``benchmarks/amcl_vs_nav2.py``): within a cell the cell lookup's
-likelihood is flat, and the sharper exact one pulls the estimate about more from scan to scan.
+Side by side with the ``amcl`` package (Nav2's code) on 24–36 seeded tracks per map with
+odometry equal to the truth, the exact lookup left the kit 1.07–1.15× Nav2's position error
+on the TurtleBot3 maps and the office, AMCL's 0.92–0.96× (``benchmarks/amcl_vs_nav2.py``):
+within a cell the cell lookup's likelihood is flat, and the sharper exact one pulls the
+estimate about more from scan to scan.
 
 Grid conventions: cell ``(row, col)`` covers ``[col, col + 1) × [row, row + 1)`` resolutions
 from the map's ``info.origin`` (its yaw honoured); a cell is occupied at ``value >= 65``
