@@ -51,6 +51,7 @@ from kit.localization.likelihood_field import (
     BeamModel,
     LikelihoodField,
     LikelihoodFieldModel,
+    Lookup,
     beam_endpoints,
     beam_model_weights,
     likelihood_field_weights,
@@ -139,7 +140,7 @@ class AmclParameters:
     deskew: bool = True
     """kit: place each beam where the scanner was at that beam's time (the odometry through
     tf), instead of taking the whole scan from the pose at its stamp as Nav2 does."""
-    beam_lookup: str = "cells"
+    beam_lookup: Lookup = "cells"
     """kit: the beam model's expected range — ``cells``, AMCL's ``map_calc_range`` (between
     cell centres, along Bresenham's line), or ``exact`` (from the scanner to where the ray
     enters the first blocked cell); see :func:`kit.localization.expected_ranges`."""
@@ -394,7 +395,7 @@ class Amcl:
             step = max(1, (len(ranges) - 1) // (p.max_beams - 1))
             r = np.where(ranges <= range_min, range_max, ranges)[::step]
             model = BeamModel(p.z_hit, p.z_short, p.z_max, p.z_rand, p.sigma_hit,
-                              p.lambda_short, p.beam_lookup)  # type: ignore[arg-type]
+                              p.lambda_short, p.beam_lookup)
             return beam_model_weights(self.filter.poses, r, laser.bearings[::step],
                                       laser.position, self.field, model, range_max), \
                 int(np.count_nonzero(~np.isnan(r)))
