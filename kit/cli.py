@@ -47,8 +47,8 @@ def _robot(args: argparse.Namespace) -> int:
     print(f"  {'wheel joints':22s}{r.wheel_joints[0]} (right), {r.wheel_joints[1]} (left), "
           f"midpoint at ({r.axle[0]:+.3f}, {r.axle[1]:+.3f}) m")
     fp = r.footprint
-    print(f"  {'footprint':22s}{len(fp)} points, x {fp[:, 0].min():+.3f} to "
-          f"{fp[:, 0].max():+.3f} m, y {fp[:, 1].min():+.3f} to {fp[:, 1].max():+.3f} m")
+    print(f"  {'footprint':22s}{len(fp)} points, x {np.min(fp[:, 0]):+.3f} to "
+          f"{np.max(fp[:, 0]):+.3f} m, y {np.min(fp[:, 1]):+.3f} to {np.max(fp[:, 1]):+.3f} m")
     print("  static transforms (parent -> child: x y z [m], yaw [deg])")
     for j in r.joints:
         print(f"    {j.parent} -> {j.child}: {j.xyz[0]:+.4f} {j.xyz[1]:+.4f} {j.xyz[2]:+.4f}, "

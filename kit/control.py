@@ -332,7 +332,7 @@ def step_info(time: ArrayLike, response: ArrayLike, setpoint: float | None = Non
         return float(t[i - 1] + (level - yy[i - 1]) * (t[i] - t[i - 1]) / (yy[i] - yy[i - 1]))
 
     rise = crossing(0.9 * ff) - crossing(0.1 * ff)
-    overshoot = max(0.0, (float(yy.max()) - ff) / ff * 100.0)
+    overshoot = max(0.0, (float(np.max(yy)) - ff) / ff * 100.0)
     outside = np.flatnonzero(np.abs(yy - ff) > settling_band * ff)
     settling = float(t[outside[-1] + 1] - t[0]) if len(outside) and outside[-1] + 1 < len(t) \
         else (0.0 if not len(outside) else float(t[-1] - t[0]))

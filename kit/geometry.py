@@ -162,8 +162,8 @@ def yaw_to_quaternion(yaw: ArrayLike) -> FloatArray:
     [0.0, 0.0, 1.0, 0.0]
     """
     if isinstance(yaw, (float, int)):                 # the common scalar case, without stack
-        half = 0.5 * float(yaw)
-        return np.array([0.0, 0.0, math.sin(half), math.cos(half)])
+        h = 0.5 * float(yaw)
+        return np.array([0.0, 0.0, math.sin(h), math.cos(h)])
     half = 0.5 * np.asarray(yaw, dtype=np.float64)
     out = np.zeros((*half.shape, 4))
     out[..., 2], out[..., 3] = np.sin(half), np.cos(half)

@@ -89,8 +89,8 @@ def tick_delta(previous: ArrayLike, current: ArrayLike,
         raise ValueError(f"counter_bits must be an integer from 2 to 63; got {counter_bits!r}")
     modulus = 1 << int(counter_bits)
     if type(previous) is int and type(current) is int:   # one reading, as a node gets it
-        d = (current - previous) % modulus
-        return np.array(d - modulus if d >= modulus // 2 else d, dtype=np.int64)
+        step = (current - previous) % modulus
+        return np.array(step - modulus if step >= modulus // 2 else step, dtype=np.int64)
     prev = np.asarray(previous)
     cur = np.asarray(current)
     if prev.dtype.kind not in "iu" or cur.dtype.kind not in "iu":

@@ -177,7 +177,7 @@ def _depth(shape: Shape, T: FloatArray, reader: MeshReader | None) -> float:
                           for i, h in enumerate(shape.dimensions)))
     else:
         points = _shape_points(shape, T, reader)
-        return float(T[2, 3] - points[:, 2].min())
+        return float(T[2, 3] - np.min(points[:, 2]))
     return reach
 
 

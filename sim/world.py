@@ -105,8 +105,8 @@ class World:
             pts.append(self.circles[:, :2] - self.circles[:, 2:3])
             pts.append(self.circles[:, :2] + self.circles[:, 2:3])
         allpts = np.vstack(pts)
-        return (float(allpts[:, 0].min()), float(allpts[:, 1].min()),
-                float(allpts[:, 0].max()), float(allpts[:, 1].max()))
+        return (float(np.min(allpts[:, 0])), float(np.min(allpts[:, 1])),
+                float(np.max(allpts[:, 0])), float(np.max(allpts[:, 1])))
 
     def occupancy_grid(self, resolution: float = 0.05, *, layer: str = "all",
                        margin: float = 0.5) -> msgs.OccupancyGrid:

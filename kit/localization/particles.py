@@ -85,7 +85,7 @@ def normalize_log_weights(log_weights: ArrayLike) -> FloatArray:
         raise ValueError(f"log_weights must be a non-empty 1-D array; got shape {lw.shape}")
     if np.any(np.isnan(lw)) or np.any(lw == np.inf):
         raise ValueError("log_weights contain NaN or +inf")
-    top = lw.max()
+    top = np.max(lw)
     if top == -np.inf:
         raise ValueError("every particle has zero likelihood (all log-weights are -inf)")
     w = np.exp(lw - top)

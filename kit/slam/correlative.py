@@ -141,7 +141,7 @@ def cell_keys(cells: IntArray) -> IntArray:
     [6, 2, 6]
     """
     lo = cells.min(axis=0)
-    return (cells[:, 0] - lo[0]) * (int(cells[:, 1].max() - lo[1]) + 1) + (cells[:, 1] - lo[1])
+    return (cells[:, 0] - lo[0]) * (int(np.max(cells[:, 1]) - lo[1]) + 1) + (cells[:, 1] - lo[1])
 
 
 # ----------------------------------------------------------------------------- the search
