@@ -137,14 +137,18 @@ def test_probe_names_each_emulated_device():
                "bno055": BNO055Emulator(), "dpralte": DpralteBusEmulator(),
                "os5000": Os5000Emulator(), "lms2xx": LMS2xxEmulator()}
     answers = {}
+    # each try waits up to 1 s for an answer (probe's default 0.2 s): the six probes and the
+    # server of the six devices are threads of one process, which a loaded machine can keep
+    # from answering for longer than a device would take (one run with six spinning processes
+    # on two cores found no device on one port)
     with PtyServer(list(devices.values())) as server:
         threads = [threading.Thread(target=lambda n=name, p=path: answers.__setitem__(
-            n, probe(p))) for name, path in zip(devices, server.paths, strict=True)]
+            n, probe(p, timeout=1.0))) for name, path in zip(devices, server.paths, strict=True)]
         for t in threads:
             t.start()
         for t in threads:
-            t.join(30.0)
-    assert {name: (a.device, a.baudrate) for name, a in answers.items()} == {
+            t.join(120.0)
+    assert {name: a and (a.device, a.baudrate) for name, a in answers.items()} == {
         "odrive": ("odrive", 115200), "rplidar": ("rplidar", 115200),
         "bno055": ("bno055", 115200), "dpralte": ("dpralte", 115200),
         "os5000": ("os5000", 19200), "lms2xx": ("lms2xx", 9600)}
