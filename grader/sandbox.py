@@ -35,6 +35,7 @@ import functools
 import importlib
 import json
 import os
+import queue
 import secrets
 import shutil
 import signal
@@ -43,6 +44,7 @@ import sys
 import tempfile
 import threading
 from collections.abc import Mapping, Sequence
+from concurrent.futures import Future
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -381,8 +383,44 @@ _PRCTL = ctypes.CDLL(None, use_errno=True).prctl
 
 
 def _parent_death_signal() -> None:
-    """In the child before exec: die when the grader's thread that started it dies."""
+    """In the child before exec: die when the thread that forked it ends (see
+    :func:`_from_spawner`: that thread lives as long as the grader's process)."""
     _PRCTL(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+
+
+_SPAWNER_LOCK = threading.Lock()
+_SPAWNER: tuple[int, queue.SimpleQueue[tuple[Any, Future[Any]]]] | None = None
+
+
+def _from_spawner(call: Any) -> Any:
+    """``call()`` run by the one thread of this process that forks every sandbox.
+
+    The kernel's parent-death signal fires when the *thread* that forked a child ends, not its
+    process. A sandbox forked by a grading pool's thread was killed as soon as that pool shut
+    down, though its server was kept for the next run; the fifth run in one process (an
+    instructor's notebook, a Dask worker) then found its server "stopped too often". This
+    thread lives as long as the process (one per process, made again after a fork)."""
+    global _SPAWNER
+    with _SPAWNER_LOCK:
+        if _SPAWNER is None or _SPAWNER[0] != os.getpid():
+            jobs: queue.SimpleQueue[tuple[Any, Future[Any]]] = queue.SimpleQueue()
+            threading.Thread(target=_spawner_loop, args=(jobs,), name="kit-sandbox-spawner",
+                             daemon=True).start()
+            _SPAWNER = (os.getpid(), jobs)
+        jobs = _SPAWNER[1]
+    done: Future[Any] = Future()
+    jobs.put((call, done))
+    return done.result()
+
+
+def _spawner_loop(jobs: queue.SimpleQueue[tuple[Any, Future[Any]]]) -> None:
+    while True:
+        call, done = jobs.get()
+        if done.set_running_or_notify_cancel():
+            try:
+                done.set_result(call())
+            except BaseException as exc:  # handed to the caller, raised in its thread
+                done.set_exception(exc)
 
 
 # ------------------------------------------------------------------ one sandbox
@@ -504,10 +542,11 @@ class Sandbox:
         command = self.command(argv)
         env = self.env if self.layer == "rlimits" else {"PATH": "/usr/bin:/bin"}
         try:
-            proc = subprocess.Popen(command, stdin=stdin, stdout=stdout, stderr=stderr,
-                                    cwd=self.home if self.scratch else "/", env=env,
-                                    pass_fds=(*pass_fds, *self._fds), start_new_session=True,
-                                    preexec_fn=_parent_death_signal)
+            proc = _from_spawner(functools.partial(
+                subprocess.Popen, command, stdin=stdin, stdout=stdout, stderr=stderr,
+                cwd=self.home if self.scratch else "/", env=env,
+                pass_fds=(*pass_fds, *self._fds), start_new_session=True,
+                preexec_fn=_parent_death_signal))
         finally:
             for fd in self._fds:
                 os.close(fd)

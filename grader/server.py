@@ -155,7 +155,10 @@ def _server_env(layer: str) -> dict[str, str]:
 
 class GradingServer:
     """One lab's grading server in one layer; thread-safe (each grading thread opens its own
-    sessions). Restarts the server once it has died, at most :attr:`RESTARTS` times."""
+    sessions). Restarts the server once it has died, at most :attr:`RESTARTS` times in a row:
+    a session the server saw through to its end makes the count start again, so a
+    long-lived process (an instructor's notebook, a Dask worker) is not refused for the
+    stops of the past."""
 
     RESTARTS = 3
 
@@ -170,6 +173,7 @@ class GradingServer:
         self.free: collections.deque[int] = collections.deque()
         self.uid_ready = threading.Condition(self.lock)
         self.starts = 0
+        self.stops_in_a_row = 0
         self.failed_imports: list[str] = []
         self.log = tempfile.TemporaryFile()
         with self.lock:
@@ -178,7 +182,7 @@ class GradingServer:
     # -- life
 
     def _start(self) -> None:
-        if self.starts > self.RESTARTS:
+        if self.stops_in_a_row > self.RESTARTS:
             raise ServerLost("the grading server stopped too often")
         self.starts += 1
         env = _server_env(self.layer)
@@ -246,6 +250,12 @@ class GradingServer:
             self.uid_ready.wait(timeout=1.0)
         return self.free.popleft()
 
+    def _served(self, generation: int) -> None:
+        """A session of this server's ``generation`` ended with its keeper's report."""
+        with self.lock:
+            if generation == self.starts:
+                self.stops_in_a_row = 0
+
     def _give_uid(self, uid: int, generation: int) -> None:
         with self.lock:
             if generation == self.starts and uid not in self.free:
@@ -259,6 +269,7 @@ class GradingServer:
             if sandbox.stopping():
                 raise Interrupted("grading is being stopped")
             if not self.alive():
+                self.stops_in_a_row += 1
                 self._stop()
                 self._start()
             uid = self._take_uid()
@@ -288,16 +299,19 @@ class GradingServer:
                 their_channel.close()
                 their_status.close()
         return Session(self, channel, status, out, err,
-                       lambda: self._give_uid(uid, generation), home)
+                       lambda: self._give_uid(uid, generation), home,
+                       lambda: self._served(generation))
 
 
 class Session:
     """One submission's process: questions out, answers in, then how it ended."""
 
     def __init__(self, server: GradingServer, channel: socket.socket, status: socket.socket,
-                 out: IO[bytes], err: IO[bytes], release: Any, home: str) -> None:
+                 out: IO[bytes], err: IO[bytes], release: Any, home: str,
+                 served: Any = None) -> None:
         self.server, self.channel, self.status = server, channel, status
         self.out, self.err, self.release, self.home = out, err, release, home
+        self.served = served
         self.reader = frames.Reader(channel)
         self.started_cell: int | None = None
         self.ending: Ending | None = None
@@ -346,6 +360,8 @@ class Session:
         elif "keeper_error" in report:
             ending.unknown = f"its keeper failed: {str(report['keeper_error'])[-300:]}"
         else:
+            if self.served is not None:
+                self.served()
             ending.signal = report.get("signal")
             ending.exit = report.get("exit")
             ending.cpu = float(report.get("cpu", 0.0))
