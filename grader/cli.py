@@ -24,16 +24,15 @@ from grader.feedback import write_feedback
 from grader.grade import close_servers
 from grader.gradebook import grade_class
 from grader.results import STATUSES, SubmissionResult, display_points
-from grader.sandbox import SandboxUnavailable, detect_layer
+from grader.sandbox import SandboxUnavailable, detect_layer, why_not_isolated
 from grader.spec import LabSpec, load_lab, normalise_lab, read_secret
 from grader.submissions import clean_text, find_submissions
 
 NO_ISOLATION = (
-    "this machine offers only the rlimits sandbox layer (bubblewrap is missing and unshare "
-    "needs root): it limits time and memory but cannot keep a submission from reading "
-    "solutions/, the other submissions or your files, nor from writing them. Install "
-    "bubblewrap (apt-get install bubblewrap) or grade as root; for a class you trust, pass "
-    "--allow-no-isolation")
+    "this machine offers only the rlimits sandbox layer ({why}): it limits time and memory "
+    "but cannot keep a submission from reading solutions/, the other submissions or your "
+    "files, nor from writing them. Grade as root with bubblewrap installed (apt-get install "
+    "bubblewrap); for a class you trust, pass --allow-no-isolation")
 NO_SECRET = (
     "no course secret: set KIT_COURSE_SECRET or pass --secret-file FILE (the hidden cases are "
     "seeded from it; without it anyone can regenerate them). To grade for practice with "
@@ -115,7 +114,7 @@ def _grade(args: argparse.Namespace) -> int:
         return 2
     layer = detect_layer() if not args.dask else "(on the Dask workers)"
     if layer == "rlimits" and not args.allow_no_isolation:
-        print(f"grader: {NO_ISOLATION}", file=sys.stderr)
+        print(f"grader: {NO_ISOLATION.format(why=why_not_isolated())}", file=sys.stderr)
         return 2
     found = find_submissions([Path(p) for p in args.submissions], lab)
     for path, why in found.skipped:

@@ -319,6 +319,18 @@ def layer_works(layer: str) -> bool:
         box.finish(proc)
 
 
+def why_not_isolated() -> str:
+    """Why neither isolating layer works here, in the words an instructor can act on."""
+    if os.geteuid() != 0:
+        return ("the grader is not running as root, and both isolating layers run each "
+                "submission as a user of its own, which takes root")
+    missing = [tool for layer in ISOLATING for tool in NEEDS[layer] if not shutil.which(tool)]
+    if len(missing) == len(ISOLATING):
+        return "neither bubblewrap (bwrap) nor unshare is installed"
+    return ("bubblewrap and unshare could not start the kit's Python as another user: is the "
+            "kit's installation readable by other users?")
+
+
 def detect_layer(forced: str | None = None) -> str:
     """``"bwrap"``, ``"unshare"`` or ``"rlimits"``: the strongest that works here.
 

@@ -88,6 +88,17 @@ def solved():
 
 
 @pytest.fixture(scope="session")
+def weakest_layer_allowed() -> list[str]:
+    """``["--allow-no-isolation"]`` where only the rlimits sandbox layer works here (a
+    developer who is not root: both isolating layers run each submission as a user of its
+    own), else ``[]`` (CI, as root). The ``grader grade`` command lines of tests about
+    something else than the layer then grade on that layer instead of being refused."""
+    from grader.sandbox import detect_layer
+
+    return ["--allow-no-isolation"] if detect_layer() == "rlimits" else []
+
+
+@pytest.fixture(scope="session")
 def once_for_all_workers(tmp_path_factory: pytest.TempPathFactory
                          ) -> Callable[[str, Callable[[], Any]], Any]:
     """``once(key, compute)``: ``compute()``'s value, computed by one test process of the run.

@@ -39,13 +39,13 @@ def test_grader_check_release_and_grade(tmp_path, capsys):
     assert "no such lab" in capsys.readouterr().err
 
 
-def test_grader_grade_then_feedback(tmp_path, capsys):
+def test_grader_grade_then_feedback(tmp_path, capsys, weakest_layer_allowed):
     import shutil
 
     shutil.copy("solutions/01-kinematics.ipynb", tmp_path / "ada.ipynb")
     out = tmp_path / "gb.csv"
     assert grader_cli.main(["grade", str(tmp_path / "ada.ipynb"), "--lab", "01", "--out",
-                            str(out), "--practice"]) == 0
+                            str(out), "--practice", *weakest_layer_allowed]) == 0
     printed = capsys.readouterr().out
     assert "sandbox:" in printed and "ada" in printed and "20 / 20" in printed
     assert grader_cli.main(["feedback", str(tmp_path / "gb.json"), "--out",

@@ -39,12 +39,13 @@ def grade_args(tmp: Path, *extra: str) -> list[str]:
     return ["grade", str(tmp / "class"), "--lab", "01", "--out", str(tmp / "gb.csv"), *extra]
 
 
-def test_without_a_secret_grading_is_refused_unless_practice(folder, capsys):
-    assert cli.main(grade_args(folder)) == 2
+def test_without_a_secret_grading_is_refused_unless_practice(folder, capsys,
+                                                           weakest_layer_allowed):
+    assert cli.main(grade_args(folder, *weakest_layer_allowed)) == 2
     err = capsys.readouterr().err
     assert "no course secret" in err and "--practice" in err and "KIT_COURSE_SECRET" in err
     assert not (folder / "gb.csv").exists()
-    assert cli.main(grade_args(folder, "--practice")) == 0
+    assert cli.main(grade_args(folder, "--practice", *weakest_layer_allowed)) == 0
     out = capsys.readouterr().out
     assert "practice grading" in out
     with open(folder / "gb.csv", newline="", encoding="utf-8") as fh:
@@ -52,7 +53,8 @@ def test_without_a_secret_grading_is_refused_unless_practice(folder, capsys):
     assert len(reasons) == 2 and all("practice grading" in r for r in reasons)
 
 
-def test_the_secret_comes_from_the_environment_or_a_file(folder, capsys, monkeypatch, tmp_path):
+def test_the_secret_comes_from_the_environment_or_a_file(folder, capsys, monkeypatch, tmp_path,
+                                                          weakest_layer_allowed):
     secret = tmp_path / "secret.txt"
     secret.write_text("  s3cret\n", encoding="utf-8")
     assert read_secret(secret) == "s3cret"
@@ -63,7 +65,8 @@ def test_the_secret_comes_from_the_environment_or_a_file(folder, capsys, monkeyp
         read_secret(tmp_path / "empty.txt")
     with pytest.raises(SecretError, match="cannot read the course secret from"):
         read_secret(tmp_path / "missing.txt")
-    assert cli.main(grade_args(folder, "--secret-file", str(secret))) == 0
+    assert cli.main(grade_args(folder, "--secret-file", str(secret),
+                               *weakest_layer_allowed)) == 0
     out = capsys.readouterr().out
     assert "practice" not in out and "skipped" in out and "03-drivers.ipynb" in out
     assert cli.main(grade_args(folder, "--secret-file", str(tmp_path / "missing.txt"))) == 2
@@ -78,8 +81,30 @@ def test_the_rlimits_layer_is_refused_for_a_class_unless_allowed(folder, capsys,
     assert not (folder / "gb.csv").exists()
 
 
-def test_a_run_ends_with_a_summary_and_counts_grader_errors_in_its_exit_code(folder, capsys,
-                                                                            monkeypatch):
+@pytest.mark.parametrize(("euid", "tools", "said"), [
+    (1000, ("bwrap", "unshare"), "not running as root"),
+    (0, (), "neither bubblewrap (bwrap) nor unshare is installed"),
+    (0, ("bwrap", "unshare"), "is the kit's installation readable by other users?"),
+])
+def test_the_refusal_says_why_no_isolating_layer_works(folder, capsys, monkeypatch, euid, tools,
+                                                      said):
+    """A user who is not root is told so, not that bubblewrap is missing where it is
+    installed."""
+    import shutil
+
+    monkeypatch.setattr(cli, "detect_layer", lambda: "rlimits")
+    monkeypatch.setattr("os.geteuid", lambda: euid)
+    monkeypatch.setattr(shutil, "which", lambda tool: f"/usr/bin/{tool}" if tool in tools
+                        else None)
+    assert cli.main(grade_args(folder, "--practice")) == 2
+    err = capsys.readouterr().err
+    assert said in err and "rlimits" in err and "--allow-no-isolation" in err
+    if euid:
+        assert "missing" not in err and "not installed" not in err
+
+
+def test_a_run_ends_with_a_summary_and_counts_grader_errors_in_its_exit_code(
+        folder, capsys, monkeypatch, weakest_layer_allowed):
     real = grade.Conversation.run
 
     def failing_for_ben(self):
@@ -88,7 +113,7 @@ def test_a_run_ends_with_a_summary_and_counts_grader_errors_in_its_exit_code(fol
         return real(self)
 
     monkeypatch.setattr(grade.Conversation, "run", failing_for_ben)
-    assert cli.main(grade_args(folder, "--practice", "--jobs", "2")) == 1
+    assert cli.main(grade_args(folder, "--practice", "--jobs", "2", *weakest_layer_allowed)) == 1
     lines = capsys.readouterr().out.strip().splitlines()
     assert lines[-1].startswith("1 rows are grader errors") and lines[-1].endswith(": ben")
     table = lines[lines.index(next(ln for ln in lines if ln.startswith("status"))):]
@@ -109,23 +134,23 @@ def test_the_progress_bar_shows_count_rate_and_eta(capsys):
     assert "2/4" in captured.err and "submission" in captured.err and "<" in captured.err
 
 
-def test_feedback_prints_the_number_of_files_it_wrote(folder, capsys):
-    assert cli.main(grade_args(folder, "--practice")) == 0
+def test_feedback_prints_the_number_of_files_it_wrote(folder, capsys, weakest_layer_allowed):
+    assert cli.main(grade_args(folder, "--practice", *weakest_layer_allowed)) == 0
     capsys.readouterr()
     assert cli.main(["feedback", str(folder / "gb.json"), "--out", str(folder / "fb")]) == 0
     assert capsys.readouterr().out.strip() == f"wrote 2 feedback files to {folder / 'fb'}"
     assert sorted(p.name for p in (folder / "fb").iterdir()) == ["ann.md", "ben.md"]
 
 
-def test_a_cell_that_ends_the_process_is_left_out_and_the_rest_still_graded(tmp_path, capsys,
-                                                                            monkeypatch):
+def test_a_cell_that_ends_the_process_is_left_out_and_the_rest_still_graded(
+        tmp_path, capsys, monkeypatch, weakest_layer_allowed):
     """The notebook's cells run again without the cell that ended the process, and the
     functions the other cells define are graded (they were all 'missing' before: only the
     first run's functions counted)."""
     monkeypatch.delenv("KIT_COURSE_SECRET", raising=False)
     notebook(tmp_path / "class" / "cat.ipynb", GOOD, "import os\nos._exit(3)")
     notebook(tmp_path / "class" / "dan.ipynb", GOOD)
-    assert cli.main(grade_args(tmp_path, "--practice")) == 0
+    assert cli.main(grade_args(tmp_path, "--practice", *weakest_layer_allowed)) == 0
     with open(tmp_path / "gb.csv", newline="", encoding="utf-8") as fh:
         rows = {row["student"]: row for row in csv.DictReader(fh)}
     honest = rows["dan"]["lab01.turning_radius"]
