@@ -295,28 +295,50 @@ def _with_parents(plan: list[Mount]) -> list[Mount]:
 NEEDS = {"bwrap": ("bwrap",), "unshare": ("unshare",)}
 
 
+_PROBE = """import os
+os.setgroups([])
+os.setresgid({uid}, {uid}, {uid})
+os.setresuid({uid}, {uid}, {uid})
+import grader.runner, grader.seccomp, grader.zygote, kit.geometry, numpy
+"""
+"""What a submission's process does first, as the user a submission runs as: a checkout or an
+environment made under ``umask 077`` starts as root in the sandbox but cannot be read there."""
+
+_PROBE_FAILURES: dict[str, str] = {}
+"""The last line a layer's failed probe printed (for :func:`why_not_isolated`)."""
+
+
 @functools.cache
 def layer_works(layer: str) -> bool:
-    """Whether ``layer`` can start the worker's Python here (bubblewrap may be missing or
-    refused, the namespaces may need root, the kit may be unreadable to other users)."""
+    """Whether ``layer`` can run the kit's Python here as a submission's user (bubblewrap may
+    be missing or refused, the namespaces need root, the kit may be unreadable to other
+    users)."""
     if layer == "rlimits":
         return True
     needed = NEEDS.get(layer)
     if needed is None or os.geteuid() != 0 or not all(shutil.which(n) for n in needed):
         return False
     box = Sandbox.create(layer, Limits(), {}, slots=1)
+    errors = tempfile.TemporaryFile()
     try:
-        proc = box.start([sys.executable, "-I", "-B", "-c", "import grader.zygote"],
-                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                         stderr=subprocess.DEVNULL)
-    except (OSError, subprocess.SubprocessError, Interrupted):
+        proc = box.start([sys.executable, "-I", "-B", "-c", _PROBE.format(uid=box.uids[0])],
+                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=errors)
+    except (OSError, subprocess.SubprocessError, Interrupted) as exc:
+        _PROBE_FAILURES[layer] = str(exc)
+        errors.close()
         return False
     try:
-        return proc.wait(timeout=60) == 0
+        works = proc.wait(timeout=60) == 0
     except subprocess.TimeoutExpired:
-        return False
+        works = False
     finally:
         box.finish(proc)
+    if not works:
+        errors.seek(0)
+        lines = errors.read().decode("utf-8", "replace").strip().splitlines()
+        _PROBE_FAILURES[layer] = lines[-1][-300:] if lines else "no output"
+    errors.close()
+    return works
 
 
 def why_not_isolated() -> str:
@@ -327,8 +349,11 @@ def why_not_isolated() -> str:
     missing = [tool for layer in ISOLATING for tool in NEEDS[layer] if not shutil.which(tool)]
     if len(missing) == len(ISOLATING):
         return "neither bubblewrap (bwrap) nor unshare is installed"
-    return ("bubblewrap and unshare could not start the kit's Python as another user: is the "
-            "kit's installation readable by other users?")
+    seen = "; ".join(f"{layer}: {_PROBE_FAILURES[layer]}" for layer in ISOLATING
+                     if layer in _PROBE_FAILURES)
+    return ("bubblewrap and unshare could not run the kit's Python as another user: is the "
+            "kit's installation readable by other users (a checkout or .venv made under umask "
+            "077: chmod -R o+rX it)?" + (f" They said: {seen}" if seen else ""))
 
 
 def detect_layer(forced: str | None = None) -> str:

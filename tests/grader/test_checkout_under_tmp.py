@@ -24,6 +24,7 @@ import json, os, sys
 from grader import zygote
 
 source, point, home = sys.argv[1:4]
+os.umask(0o022)  # a checkout other users can read, whatever the caller's umask
 MS_RDONLY, MS_REMOUNT, MS_BIND = 1, 32, 4096
 held = os.open(source, os.O_PATH)
 # the sandbox as the grader builds it: a tmpfs on /tmp, the checkout bound read-only in it
@@ -53,6 +54,8 @@ def test_a_folder_bound_under_tmp_stays_readable_and_read_only_for_the_submissio
     source = tmp_path / "kit"
     source.mkdir()
     (source / "module.py").write_text("ANSWER = 42\n", encoding="utf-8")
+    source.chmod(0o755)  # readable by other users, as the sandbox needs (not so under umask 077)
+    (source / "module.py").chmod(0o644)
     home = "/mnt"  # the submission's home, a tmpfs inside the namespace only
     point = "/tmp/kit-checkout-under-tmp/k/kit"
     run = subprocess.run(["unshare", "--mount", "--propagation", "private", sys.executable,

@@ -251,3 +251,39 @@ def test_numba_finds_its_compiled_lidar_in_a_submissions_prison(layer):
         server.close()
     assert header["status"] == "returned", header
     assert json.loads(header["value"]) == {"hits": 1, "misses": 0}
+
+
+def test_a_kit_other_users_cannot_read_leaves_no_isolating_layer_and_says_why(tmp_path):
+    """A checkout made under ``umask 077`` starts as root in the sandbox, but a submission's
+    user cannot import the kit there: each isolating layer's probe, run as that user, fails,
+    so grading falls to the rlimits layer (refused for a class unless allowed) with the
+    reason — instead of a gradebook where every submission 'crashed' with exit code 70."""
+    import shutil
+
+    if os.geteuid() != 0 or not any(shutil.which(n) for n in ("bwrap", "unshare")):
+        pytest.skip("needs root and bubblewrap or unshare (CI has them)")
+    copy = tmp_path / "private"
+    for name in ("kit", "grader", "sim", "hardware"):
+        shutil.copytree(ROOT / name, copy / name,
+                        ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+    for folder, _dirs, files in os.walk(copy):
+        os.chmod(folder, 0o700)
+        for f in files:
+            os.chmod(os.path.join(folder, f), 0o600)
+    # the probe finds the copy where an installed kit's path entry would be
+    where = f"import sys\nsys.path.insert(0, {str(copy)!r})\n"
+    code = ("import json\nfrom grader import sandbox\n"
+            f"sandbox._PROBE = {where!r} + sandbox._PROBE\n"
+            "works = {layer: sandbox.layer_works(layer) for layer in sandbox.ISOLATING}\n"
+            "print(json.dumps([works, sandbox.detect_layer(), sandbox.why_not_isolated(),\n"
+            "                  sandbox.grader_dir()]))\n")
+    env = {**os.environ, "PYTHONPATH": str(copy)}
+    env.pop("KIT_SANDBOX", None)
+    run = subprocess.run([sys.executable, "-c", code], cwd=copy, env=env, capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    works, layer, why, graders = json.loads(run.stdout)
+    assert graders == str(copy / "grader")  # the copy was the one probed
+    assert works == {layer: False for layer in ISOLATING} and layer == "rlimits"
+    assert "readable by other users" in why and "umask 077" in why
+    assert "Permission denied" in why and str(copy) in why
