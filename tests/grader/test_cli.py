@@ -84,7 +84,7 @@ def test_the_rlimits_layer_is_refused_for_a_class_unless_allowed(folder, capsys,
 @pytest.mark.parametrize(("euid", "tools", "said"), [
     (1000, ("bwrap", "unshare"), "not running as root"),
     (0, (), "neither bubblewrap (bwrap) nor unshare is installed"),
-    (0, ("bwrap", "unshare"), "is the kit's installation readable by other users?"),
+    (0, ("bwrap", "unshare"), "readable by other users (a checkout or .venv made under umask 077"),
 ])
 def test_the_refusal_says_why_no_isolating_layer_works(folder, capsys, monkeypatch, euid, tools,
                                                       said):
