@@ -403,6 +403,11 @@ def classify_ending(ending: Ending, cpu_seconds: int, memory_mb: int, hidden: bo
     """What a process's end says about the submission, or ``None`` for a clean end."""
     if ending.unknown:
         return Event("grader error", f"{ending.unknown}; a re-run retries this submission")
+    if not ending.started and not ending.killed_by_grader:
+        last = ending.stderr_tail.strip().splitlines()[-1:] or ["no output"]
+        return Event("grader error", f"the submission's process failed in the grader's own "
+                     f"set-up, before any of its code ran ({clean_text(last[0])[-200:]}); a "
+                     f"re-run retries this submission")
     if ending.lost == "timeout":
         return Event("timeout", "stopped answering (an endless loop that ignored its time "
                      "limit?)", hidden)

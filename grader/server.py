@@ -80,6 +80,10 @@ class Ending:
     stdout_bytes: int = 0
     stderr_bytes: int = 0
     stderr_tail: str = ""
+    started: bool = True
+    """whether the process finished its own set-up (limits, seccomp, the grader's runner) before
+    it ended; ``False``: it failed in the grader's set-up, before any of the submission's
+    code could run."""
 
 
 # ------------------------------------------------------------------ what the server holds
@@ -367,6 +371,7 @@ class Session:
             ending.cpu = float(report.get("cpu", 0.0))
             ending.maxrss_kb = int(report.get("maxrss_kb", 0))
             ending.killed_by_grader = bool(report.get("killed_by_grader"))
+            ending.started = report.get("started", True) is not False
         ending.stdout_bytes = os.fstat(self.out.fileno()).st_size
         ending.stderr_bytes = os.fstat(self.err.fileno()).st_size
         if read_stderr:

@@ -224,9 +224,11 @@ def _address_space() -> int:
 
 
 def _submission(config: dict[str, Any], request: dict[str, Any], channel: int, out: int,
-                err: int) -> None:
-    """The submission's process: limits, the seccomp filter, then the answers. Never
-    returns."""
+                err: int, ready: int) -> None:
+    """The submission's process: limits, the seccomp filter, then the answers. Writes one
+    byte to ``ready`` once its own set-up is done, before any of the submission's code can
+    run (a process that ends without it failed in the grader's set-up, not the student's
+    code). Never returns."""
     try:
         isolating = config["layer"] != "rlimits"
         os.chdir(config["home"] if isolating else request["home"])
@@ -234,8 +236,10 @@ def _submission(config: dict[str, Any], request: dict[str, Any], channel: int, o
         os.dup2(devnull, 0)
         os.dup2(out, 1)
         os.dup2(err, 2)
-        os.closerange(3, channel)
-        os.closerange(channel + 1, 1 << 16)
+        low, high = sorted((channel, ready))
+        os.closerange(3, low)
+        os.closerange(low + 1, high)
+        os.closerange(high + 1, 1 << 16)
         os.environ.clear()
         os.environ.update(config["env"])
         os.environ.update(HOME=config["home"] if isolating else request["home"],
@@ -247,6 +251,8 @@ def _submission(config: dict[str, Any], request: dict[str, Any], channel: int, o
             os.write(2, b"grader: no seccomp filter for this architecture\n")
         sys.stdout = os.fdopen(1, "w", buffering=1, encoding="utf-8", errors="replace")
         sys.stderr = os.fdopen(2, "w", buffering=1, encoding="utf-8", errors="replace")
+        os.write(ready, b"1")
+        os.close(ready)
         runner.serve(socket.socket(fileno=channel))
     except BaseException:
         try:
@@ -266,21 +272,28 @@ def _init(config: dict[str, Any], request: dict[str, Any], fds: list[int], repor
         _die_with_parent()
         if config["layer"] != "rlimits":
             _isolate(config, request)
+        ready_in, ready_out = os.pipe()
         child = os.fork()
         if child == 0:
             os.close(report)
+            os.close(ready_in)
             _die_with_parent()
-            _submission(config, request, channel, out, err)
-        for fd in (channel, out, err):
+            _submission(config, request, channel, out, err, ready_out)
+        for fd in (channel, out, err, ready_out):
             os.close(fd)
         while True:
             pid, code, usage = os.wait4(-1, 0)
             if pid == child:
                 break
+        os.set_blocking(ready_in, False)
+        try:
+            started = os.read(ready_in, 1) == b"1"
+        except BlockingIOError:
+            started = False
         _report(report, {"signal": os.WTERMSIG(code) if os.WIFSIGNALED(code) else None,
                          "exit": os.WEXITSTATUS(code) if os.WIFEXITED(code) else None,
                          "cpu": usage.ru_utime + usage.ru_stime,
-                         "maxrss_kb": usage.ru_maxrss})
+                         "maxrss_kb": usage.ru_maxrss, "started": started})
     except BaseException:
         _report(report, {"keeper_error": traceback.format_exc()[-2000:]})
     os._exit(0)

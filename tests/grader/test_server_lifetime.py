@@ -15,7 +15,13 @@ from pathlib import Path
 
 import pytest
 
-from grader.grade import close_servers, grade_notebook, grade_submissions, server_for
+from grader.grade import (
+    classify_ending,
+    close_servers,
+    grade_notebook,
+    grade_submissions,
+    server_for,
+)
 from grader.sandbox import Limits, detect_layer
 from grader.server import GradingServer, ServerLost, serving
 from grader.spec import load_lab
@@ -85,3 +91,21 @@ def test_a_server_that_keeps_stopping_is_given_up_after_restarts_in_a_row():
         with pytest.raises(ServerLost, match="stopped too often"):
             server.session(limits.memory_mb, limits.cpu_seconds)
         assert server.starts == server.RESTARTS + 1
+
+
+def test_a_process_that_fails_in_the_graders_own_set_up_is_a_grader_error():
+    """A submission's process that ends before its set-up is done (here its CPU limit cannot
+    be set) ran none of the student's code: a grader error with the set-up's last line, not
+    'crashed (exit code 70)' on the student's row. A process that was set up ends clean."""
+    spec = load_lab("lab01")
+    limits = Limits()
+    with serving(spec, detect_layer(), limits, slots=1) as server:
+        broken = server.session(limits.memory_mb, -5).finish()
+        assert broken.exit == 70 and not broken.started
+        event = classify_ending(broken, 5, limits.memory_mb, hidden=False)
+        assert event is not None and event.status == "grader error"
+        assert "grader's own set-up" in event.reason and "ValueError" in event.reason
+        assert "re-run retries" in event.reason
+        fine = server.session(limits.memory_mb, limits.cpu_seconds).finish()
+        assert fine.started and fine.exit == 0
+        assert classify_ending(fine, limits.cpu_seconds, limits.memory_mb, False) is None
