@@ -35,7 +35,6 @@ import functools
 import importlib
 import json
 import os
-import queue
 import secrets
 import shutil
 import signal
@@ -44,7 +43,7 @@ import sys
 import tempfile
 import threading
 from collections.abc import Mapping, Sequence
-from concurrent.futures import Future
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -319,25 +318,23 @@ def layer_works(layer: str) -> bool:
     if needed is None or os.geteuid() != 0 or not all(shutil.which(n) for n in needed):
         return False
     box = Sandbox.create(layer, Limits(), {}, slots=1)
-    errors = tempfile.TemporaryFile()
-    try:
-        proc = box.start([sys.executable, "-I", "-B", "-c", _PROBE.format(uid=box.uids[0])],
-                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=errors)
-    except (OSError, subprocess.SubprocessError, Interrupted) as exc:
-        _PROBE_FAILURES[layer] = str(exc)
-        errors.close()
-        return False
-    try:
-        works = proc.wait(timeout=60) == 0
-    except subprocess.TimeoutExpired:
-        works = False
-    finally:
-        box.finish(proc)
-    if not works:
-        errors.seek(0)
-        lines = errors.read().decode("utf-8", "replace").strip().splitlines()
-        _PROBE_FAILURES[layer] = lines[-1][-300:] if lines else "no output"
-    errors.close()
+    with tempfile.TemporaryFile() as errors:
+        try:
+            proc = box.start([sys.executable, "-I", "-B", "-c", _PROBE.format(uid=box.uids[0])],
+                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=errors)
+        except (OSError, subprocess.SubprocessError, Interrupted) as exc:
+            _PROBE_FAILURES[layer] = str(exc)
+            return False
+        try:
+            works = proc.wait(timeout=60) == 0
+        except subprocess.TimeoutExpired:
+            works = False
+        finally:
+            box.finish(proc)
+        if not works:
+            errors.seek(0)
+            lines = errors.read().decode("utf-8", "replace").strip().splitlines()
+            _PROBE_FAILURES[layer] = lines[-1][-300:] if lines else "no output"
     return works
 
 
@@ -426,7 +423,7 @@ def _parent_death_signal() -> None:
 
 
 _SPAWNER_LOCK = threading.Lock()
-_SPAWNER: tuple[int, queue.SimpleQueue[tuple[Any, Future[Any]]]] | None = None
+_SPAWNER: tuple[int, ThreadPoolExecutor] | None = None
 
 
 def _from_spawner(call: Any) -> Any:
@@ -436,28 +433,14 @@ def _from_spawner(call: Any) -> Any:
     process. A sandbox forked by a grading pool's thread was killed as soon as that pool shut
     down, though its server was kept for the next run; the fifth run in one process (an
     instructor's notebook, a Dask worker) then found its server "stopped too often". This
-    thread lives as long as the process (one per process, made again after a fork)."""
+    thread lives as long as the process (one executor per process: a forked child, which
+    inherits the executor but not its thread, makes its own)."""
     global _SPAWNER
     with _SPAWNER_LOCK:
         if _SPAWNER is None or _SPAWNER[0] != os.getpid():
-            jobs: queue.SimpleQueue[tuple[Any, Future[Any]]] = queue.SimpleQueue()
-            threading.Thread(target=_spawner_loop, args=(jobs,), name="kit-sandbox-spawner",
-                             daemon=True).start()
-            _SPAWNER = (os.getpid(), jobs)
-        jobs = _SPAWNER[1]
-    done: Future[Any] = Future()
-    jobs.put((call, done))
-    return done.result()
-
-
-def _spawner_loop(jobs: queue.SimpleQueue[tuple[Any, Future[Any]]]) -> None:
-    while True:
-        call, done = jobs.get()
-        if done.set_running_or_notify_cancel():
-            try:
-                done.set_result(call())
-            except BaseException as exc:  # handed to the caller, raised in its thread
-                done.set_exception(exc)
+            _SPAWNER = (os.getpid(), ThreadPoolExecutor(1, "kit-sandbox-spawner"))
+        spawner = _SPAWNER[1]
+    return spawner.submit(call).result()
 
 
 # ------------------------------------------------------------------ one sandbox
