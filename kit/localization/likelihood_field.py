@@ -450,7 +450,10 @@ def _cast_cells_python(x: float, y: float, angle: float, max_range: float,
     """AMCL's ``map_calc_range``: Bresenham's line from the cell of (x, y) (grid frame,
     metres) to the cell ``max_range`` along ``angle``; the distance between the centres of
     the start cell and the first blocked cell (or the first off the map) on it, in metres;
-    ``max_range`` if there is none up to one cell past the end."""
+    ``max_range`` if there is none up to one cell past the end. The distance is AMCL's own
+    ``sqrt(Δu² + Δv²) · res`` of whole cells: the square root of an integer is rounded alike
+    everywhere, where ``math.hypot`` is CPython's own and differs from the compiled one's in
+    the last bit on some rays."""
     h, w = blocked.shape
     x0, y0 = math.floor(x / res), math.floor(y / res)
     x1 = math.floor((x + max_range * math.cos(angle)) / res)
@@ -464,7 +467,7 @@ def _cast_cells_python(x: float, y: float, angle: float, max_range: float,
     while True:
         col, row = (v, u) if steep else (u, v)
         if not (0 <= row < h and 0 <= col < w) or blocked[row, col]:
-            return math.hypot(u - x0, v - y0) * res
+            return math.sqrt((u - x0) ** 2 + (v - y0) ** 2) * res
         if u == x1 + su:
             return max_range
         u += su
