@@ -139,11 +139,56 @@ class Backend:
                 if all(p is not record for p in self._pending):
                     self._pending.append(record)
                 return False
-            self._drop([k for k, c in enumerate(self._closure)
-                        if c >= 0 and any(self.closures[c] is r for r in rivals)],
-                       f"conflicts with the closures at nodes {group[0].node}-"
-                       f"{group[-1].node}, which more closures agree with",
-                       self.graph.edge_chi2())
+            self._drop_rivals(group, rivals)
+        self._enter(group)
+        return True
+
+    def settle(self) -> int:
+        """The run has ended, so no closure still waiting will be confirmed: those the graph
+        already expects — Mahalanobis distance² from its estimate now (as in :meth:`propose`)
+        at most ``loop_gate``, so that a place that merely looks like another would have to
+        lie where the graph already puts it — enter the graph as one last group, checked by
+        χ² after the solve like every group; the rest are turned down with the reason.
+        Returns how many entered. (A log that ends where it started otherwise ends with its
+        last loop open whenever the last closure's partner missed a gate by a hair.)"""
+        cfg = self.config
+        waiting, self._pending = self._pending, []
+        group = []
+        for p in waiting:
+            if p.accepted:
+                continue
+            estimate, spread = self.graph.relative_marginal(p.reference, p.node)
+            e = geometry.relative(estimate, p.measurement)
+            own = np.linalg.inv(self.information(p.covariance))
+            p.surprise = float(e @ np.linalg.solve(spread + own, e))
+            if p.surprise <= cfg.loop_gate:
+                group.append(p)
+            else:
+                p.reason = (f"the run ended before another closure agreed (Mahalanobis² "
+                            f"{p.surprise:.0f})")
+        if not group:
+            return 0
+        rivals = self._rivals(group, self.graph.poses)
+        if rivals and len(group) <= len(rivals):
+            for c in group:
+                c.reason = (f"the run ended with it disagreeing with {len(rivals)} closure(s) "
+                            f"accepted before (nodes {rivals[0].node}-{rivals[-1].node})")
+            return 0
+        if rivals:
+            self._drop_rivals(group, rivals)
+        self._enter(group)
+        return sum(c.accepted for c in group)
+
+    def _drop_rivals(self, group: list[LoopClosure], rivals: list[LoopClosure]) -> None:
+        self._drop([k for k, c in enumerate(self._closure)
+                    if c >= 0 and any(self.closures[c] is r for r in rivals)],
+                   f"conflicts with the closures at nodes {group[0].node}-"
+                   f"{group[-1].node}, which more closures agree with",
+                   self.graph.edge_chi2())
+
+    def _enter(self, group: list[LoopClosure]) -> None:
+        """``group`` into the graph as one group, then the graph solved and checked."""
+        cfg = self.config
         self._groups += 1
         for c in group:
             c.accepted, c.reason, c.group = True, "", self._groups
@@ -155,7 +200,6 @@ class Backend:
             self._kind.append("closure")
             self._closure.append(next(k for k, x in enumerate(self.closures) if x is c))
         self.optimise(10, 1e-6)
-        return True
 
     def _rivals(self, group: list[LoopClosure], poses: FloatArray) -> list[LoopClosure]:
         """Closures in the graph that a closure of ``group`` disagrees with while both

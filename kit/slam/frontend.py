@@ -223,6 +223,8 @@ class Slam:
         self.nodes: list[_Node] = []
         self._last_pose: FloatArray | None = None   # T_map_base of the last scan
         self._last_odom: FloatArray | None = None
+        self._held: tuple[FloatArray, FloatArray] | None = None
+        """(odometry, T_map_base) of the scan before the odometry began repeating itself."""
         self._travelled = 0.0
         self._turned = 0.0
         self._reference: sm.PointCloudReference | None = None
@@ -278,6 +280,20 @@ class Slam:
         self._travelled += float(np.hypot(step[0], step[1]))
         self._turned += abs(float(step[2]))
         predicted = geometry.compose(self._last_pose, step)
+        repeated = bool(np.all(np.abs(step) < 1e-9))
+        if repeated and self._held is None:
+            self._held = (self._last_odom.copy(), self._last_pose.copy())
+        elif not repeated and self._held is not None:
+            # The odometry moves again after repeating one reading: a robot standing still,
+            # or odometry that stalled while the scans went on moving (CSAIL's log repeats
+            # one reading for four scans of a 75°/s turn, then jumps 85.5°). The jump holds
+            # all the motion since the reading it repeated, some of which the scans in
+            # between have already found: predicted from the scan before the repeats, the
+            # guess is right in both cases; from the last scan, it counts that motion twice.
+            held_odom, held_pose = self._held
+            step = geometry.relative(held_odom, odom)
+            predicted = geometry.compose(held_pose, step)
+            self._held = None
         moving = self._moving(full, predicted)
         points = thin(full[~moving], cfg.point_spacing)
         match = self._match(points, predicted, step)
@@ -492,9 +508,11 @@ class Slam:
 
     # ------------------------------------------------------------------ results
     def optimize(self, iterations: int = 20) -> None:
-        """A final solve of the whole graph (after the last scan), with the edges' χ²
-        checked as after every closure."""
+        """The run's end (after the last scan): the closures still waiting for another to
+        agree are settled (:meth:`kit.slam.backend.Backend.settle`), then a final solve of
+        the whole graph, with the edges' χ² checked as after every closure."""
         if self.graph.num_edges:
+            self.backend.settle()
             self.backend.optimise(iterations, 1e-9)
             self._optimised()
 

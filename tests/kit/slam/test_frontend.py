@@ -316,3 +316,33 @@ def test_a_loops_reference_is_reused_while_its_nodes_stay_and_the_closures_are_t
                               equal_nan=True)
         assert np.array_equal(a.measurement, b.measurement)
     assert np.array_equal(reused.trajectory()[1], rebuilt.trajectory()[1])
+
+
+def test_odometry_that_stalls_then_jumps_does_not_turn_the_map():
+    """Odometry that repeats one reading while the robot turns on (18° a scan), then jumps
+    by all it missed, as CSAIL's raw log does once (one reading for four scans of a 75°/s
+    turn, then 85.5° at once): the jump is predicted from the scan before the repeats, so
+    the scan after it is matched from the right guess. Predicted from the last scan, the
+    guess counts the turn twice (90° here) and ICP settles a quarter turn off in the
+    rectangular room: the map turned by 90° from there on."""
+    from kit import msgs
+
+    steps = 24
+    truth = np.array([[3.0 + 0.04 * k, 2.5 + 0.02 * k,
+                       geometry.wrap_angle(0.3 + np.radians(18) * k)] for k in range(steps)])
+    reading = truth.copy()
+    reading[8:13] = reading[7]                 # stalled for five scans, then caught up at 13
+    slam = frontend.Slam()
+    rng = np.random.default_rng(2)
+    for k, pose in enumerate(truth):
+        ranges, angles = cast_with_person(pose, np.array([100.0, 100.0]))
+        scan = msgs.LaserScan(angle_min=float(angles[0]),
+                              angle_increment=float(angles[1] - angles[0]), range_max=30.0,
+                              ranges=ranges + rng.normal(0, 0.005, len(ranges)))
+        slam.add_scan(scan, reading[k], 0.2 * k)
+    slam.optimize()
+    _, poses = slam.trajectory()
+    assert [r.matched for r in slam.records[1:]] == ["icp"] * (steps - 1)
+    heading = np.abs(geometry.wrap_angle(poses[:, 2] - truth[:, 2]))
+    assert np.degrees(heading.max()) < 1.0
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.05
