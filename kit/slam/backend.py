@@ -13,8 +13,10 @@ After every solve each edge's χ² is checked: the worst edge over its bound lea
 the odometry's edge beside it keeps the chain) and the graph is solved again, until every
 edge agrees with the rest. A new group that leaves closures accepted earlier over their
 bound means one side is wrong — a place that looks like another — and the side with more
-closures agreeing with the rest of the graph stays (:meth:`Backend.resolve`), the sense of
-Olson's single-cluster graph partitioning and of pairwise-consistency maximisation.
+closures agreeing with the rest of the graph stays (:meth:`Backend.propose`), the sense of
+Olson's single-cluster graph partitioning and of pairwise-consistency maximisation. When the
+run ends, the closures still waiting that the graph already expects enter as a last group
+(:meth:`Backend.settle`).
 """
 
 from __future__ import annotations
@@ -180,6 +182,7 @@ class Backend:
         return sum(c.accepted for c in group)
 
     def _drop_rivals(self, group: list[LoopClosure], rivals: list[LoopClosure]) -> None:
+        """``rivals`` out of the graph, rejected in favour of ``group``."""
         self._drop([k for k, c in enumerate(self._closure)
                     if c >= 0 and any(self.closures[c] is r for r in rivals)],
                    f"conflicts with the closures at nodes {group[0].node}-"

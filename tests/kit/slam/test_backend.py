@@ -1,7 +1,7 @@
 """The SLAM back end on a synthetic loop: closures wait for one that agrees, a closure
 nothing confirms expires, a wrong pair is outvoted by a larger group that agrees with the
-rest of the graph, a match edge the rest of the graph disagrees with leaves it; and the
-pairwise agreement test of two closures."""
+rest of the graph, a match edge the rest of the graph disagrees with leaves it, closures still
+waiting when the run ends are settled; and the pairwise agreement test of two closures."""
 
 from __future__ import annotations
 
@@ -102,6 +102,32 @@ def test_a_wrong_group_is_outvoted_by_a_larger_group_that_agrees_with_the_rest()
     error = np.hypot(*(geometry.relative(b.graph.poses[12], b.graph.poses[40])[:2] -
                        geometry.relative(truth[12], truth[40])[:2]))
     assert error < 0.1                             # the wrong ones asked for 0.6 m
+
+
+def test_at_the_runs_end_an_expected_lone_closure_enters_and_a_surprising_one_does_not():
+    """The log ends before a closure's partner comes: :meth:`Backend.settle` lets in the
+    one the graph already expects (Mahalanobis² within ``loop_gate``), which closes the
+    loop; one that asks the map to move 0.8 m past where the graph has it stays out, with
+    the reason."""
+    truth = circle()
+    b = backend(truth)
+    start = np.hypot(*(b.graph.poses[N - 1, :2] - truth[N - 1, :2]))
+    last = closure(truth, N - 1, 1)
+    assert not b.propose(last) and last.reason.startswith("pending")
+    assert b.settle() == 1
+    assert last.accepted and last.reason == ""
+    assert last.surprise <= SlamConfig().loop_gate
+    assert start > 0.3 and np.hypot(*(b.graph.poses[N - 1, :2] - truth[N - 1, :2])) < 0.05
+    assert b.settle() == 0                                      # nothing waits any more
+
+    other = backend(truth)
+    wrong = closure(truth, N - 1, 1, (0.8, 0.0, 0.0))
+    other.propose(wrong)
+    edges = other.graph.num_edges
+    assert other.settle() == 0
+    assert not wrong.accepted and wrong.surprise > SlamConfig().loop_gate
+    assert wrong.reason.startswith("the run ended before another closure agreed")
+    assert other.graph.num_edges == edges
 
 
 def test_a_match_edge_the_closures_disagree_with_leaves_the_graph():
