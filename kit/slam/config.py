@@ -101,7 +101,9 @@ class SlamConfig:
     """ICP from the correlative answer must stay within this (m, rad) of it."""
     loop_max_shift: tuple[float, float] = (0.3, 0.03)
     """A closure may move the node by at most ``a + b · d`` metres, ``d`` the driving [m]
-    since the candidate: the drift scan matching can have accumulated (an assumption)."""
+    between the candidate and the node by the shortest way along the chain and across the
+    closures accepted so far: the drift scan matching can have accumulated (an
+    assumption)."""
     loop_max_turn: tuple[float, float] = (math.radians(3.0), math.radians(0.3))
     """… and turn it by at most ``a + b · d`` radians."""
     loop_gate: float = CHI2_3DOF_999

@@ -479,7 +479,7 @@ class Slam:
         record = LoopClosure(index, candidate)
         recent = [geometry.transform_points(poses[k], self.nodes[k].points)
                   for k in range(max(candidate + 1, index - cfg.loop_recent_nodes), index)]
-        travel = self.nodes[index].travelled - self.nodes[candidate].travelled
+        travel = self._drift_path(index, candidate)
         fine = match_loop(record, self.nodes[index].points, reference, poses[index],
                           np.vstack(recent) if recent else np.zeros((0, 2)), travel, cfg)
         if fine is None:
@@ -492,6 +492,27 @@ class Slam:
         if self.backend.propose(record):
             self._optimised()
         return record.accepted
+
+    def _drift_path(self, index: int, candidate: int) -> float:
+        """The driving [m] along which drift can lie between node ``index`` and an older
+        ``candidate``: the shortest way between them through the graph, along the chain of
+        nodes and across the closures accepted so far (each of which ties its two nodes
+        together). A robot that was just tied to the old part of the map cannot have drifted
+        from it by the whole way round since the candidate."""
+        from scipy.sparse import csr_array
+        from scipy.sparse.csgraph import dijkstra
+
+        closures = self.backend.loop_closures
+        if not closures:
+            return self.nodes[index].travelled - self.nodes[candidate].travelled
+        keys = sorted({index, candidate, *(k for pair in closures for k in pair)})
+        at = {k: n for n, k in enumerate(keys)}
+        travelled = np.array([self.nodes[k].travelled for k in keys])
+        ways = np.abs(travelled[:, None] - travelled[None, :])     # along the chain
+        for a, b in closures:
+            ways[at[a], at[b]] = ways[at[b], at[a]] = 1e-9        # across a closure
+        # sparse, as a dense matrix's tiny entries would be read as no way at all
+        return float(dijkstra(csr_array(ways), indices=at[index])[at[candidate]])
 
     def _loop_reference(self, chain: range, poses: FloatArray) -> LoopReference:
         """The scans of the nodes ``chain`` at ``poses``, thinned, as a loop's reference; the

@@ -13,7 +13,8 @@ and the answer must pass every gate before it may enter the pose graph:
    put most of *their* points on it too: one scan can look like another place, a stretch of
    the trajectory rarely does;
 4. **agreement with odometry** — the correction may be no larger than the drift scan
-   matching can have gathered over the driving since the candidate.
+   matching can have gathered over the driving between the candidate and the node, by the
+   shortest way through the graph (closures accepted before tie their nodes together).
 
 Every attempt, accepted or not, is kept as a :class:`LoopClosure` with its figures and the
 reason, so a failure can be traced (``kit slam`` writes them to ``closures.csv``); the back
@@ -139,7 +140,8 @@ def match_loop(record: LoopClosure, source: FloatArray, reference: FloatArray | 
     refined match, or ``None`` with ``record.reason`` set.
 
     ``recent`` are the last nodes' points in ``map`` (moved by the estimate's correction for
-    the map test); ``travel`` is the driving [m] since the candidate.
+    the map test); ``travel`` is the driving [m] along which drift can lie between the node
+    and the candidate (the shortest way through the graph, across accepted closures).
     """
     loop_ref = reference if isinstance(reference, LoopReference) else \
         LoopReference(reference, cfg)

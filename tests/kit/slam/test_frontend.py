@@ -346,3 +346,23 @@ def test_odometry_that_stalls_then_jumps_does_not_turn_the_map():
     heading = np.abs(geometry.wrap_angle(poses[:, 2] - truth[:, 2]))
     assert np.degrees(heading.max()) < 1.0
     assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.05
+
+
+def test_a_loops_drift_allowance_runs_the_shortest_way_through_accepted_closures():
+    """The driving along which a loop's drift can lie is the shortest way between its two
+    nodes along the chain and across closures already accepted: nodes 1 m of driving apart,
+    a closure tying node 80 to node 10 makes node 90 and node 5 15 m apart (10 + 5), not the
+    85 m of driving between them; a second closure (30 to 88) makes 95 and 25 12 m apart
+    (7 + 5); a rejected closure ties nothing."""
+    from types import SimpleNamespace
+
+    slam = frontend.Slam()
+    slam.nodes = [SimpleNamespace(travelled=float(k)) for k in range(100)]
+    assert slam._drift_path(90, 5) == 85.0
+    slam.backend.closures.append(loops.LoopClosure(80, 10, accepted=True, reference=10))
+    assert slam._drift_path(90, 5) == pytest.approx(15.0)
+    assert slam._drift_path(50, 40) == pytest.approx(10.0)       # the chain is shorter
+    slam.backend.closures.append(loops.LoopClosure(88, 30, accepted=True, reference=30))
+    slam.backend.closures.append(loops.LoopClosure(60, 20, accepted=False, reference=20))
+    assert slam._drift_path(95, 25) == pytest.approx(12.0)       # 95→88, 30→25
+    assert slam._drift_path(65, 20) == pytest.approx(25.0)       # 65→80, 10→20; not 60→20

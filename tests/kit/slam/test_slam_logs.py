@@ -90,16 +90,17 @@ def csail(shared_data, once_for_all_workers):
     return once_for_all_workers("csail-slam", score)
 
 
-def test_csail_beats_gmapping_on_any_machine(csail):
-    """All 1,172 relations: below GMapping's published 0.049 m, with a margin that holds on
-    other CPUs. A whole-log SLAM amplifies a last-bit difference in the arithmetic (numpy's
-    AVX-512, AVX2 and SSE kernels for exp and log differ there) into other gate decisions:
-    0.0276–0.0278 m with the three kernels, 0.0275–0.0309 m in 21 of 22 runs with the
-    odometry changed by 1e-15 of itself, 0.0424 m in one. (Before odometry that stalls
-    then jumps was predicted from before the stall, the three kernels gave 0.0287, 0.0312
-    and 0.0364 m, and four such runs of eight 1.59 m.)"""
+def test_csail_beats_gmapping_and_the_kits_earlier_slam_on_any_machine(csail):
+    """All 1,172 relations: below GMapping's published 0.049 m and the kit's earlier
+    0.0372 m, with a margin that holds on other CPUs. A whole-log SLAM amplifies a last-bit
+    difference in the arithmetic (numpy's AVX-512, AVX2 and SSE kernels for exp and log
+    differ there) into other gate decisions: 0.0276–0.0278 m with the three kernels, and
+    0.0275–0.0309 m in 16 runs with the odometry changed by 1e-15 of itself. (Before the
+    odometry's stall was predicted from before it and a loop's drift allowance ran through
+    the closures already accepted, the three kernels gave 0.0287, 0.0312 and 0.0364 m, and
+    half such runs 1.59 m.)"""
     assert csail.count == 1172
-    assert csail.translational_mean <= 0.045
+    assert csail.translational_mean <= 0.035
 
 
 @pytest.mark.xfail(strict=True, reason="not reached: CSAIL's relations carry a 5 cm and 0.25° "
