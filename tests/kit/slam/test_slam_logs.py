@@ -95,7 +95,7 @@ def test_csail_beats_gmapping_and_the_kits_earlier_slam_on_any_machine(csail):
     0.0372 m, with a margin that holds on other CPUs. A whole-log SLAM amplifies a last-bit
     difference in the arithmetic (numpy's AVX-512, AVX2 and SSE kernels for exp and log
     differ there) into other gate decisions: 0.0276–0.0278 m with the three kernels, and
-    0.0275–0.0309 m in 16 runs with the odometry changed by 1e-15 of itself. (Before the
+    0.0274–0.0309 m in 28 runs with the odometry changed by 1e-15 of itself. (Before the
     odometry's stall was predicted from before it and a loop's drift allowance ran through
     the closures already accepted, the three kernels gave 0.0287, 0.0312 and 0.0364 m, and
     half such runs 1.59 m.)"""
