@@ -109,10 +109,7 @@ class Backend:
         (``record.accepted`` says whether the closure stayed in it)."""
         cfg = self.config
         self.closures.append(record)
-        estimate, spread = self.graph.relative_marginal(record.reference, record.node)
-        e = geometry.relative(estimate, record.measurement)
-        own = np.linalg.inv(self.information(record.covariance))
-        record.surprise = float(e @ np.linalg.solve(spread + own, e))
+        record.surprise = self._surprise(record)
         for p in self._pending:
             if record.node - p.node > cfg.loop_pending_nodes:
                 p.reason = (f"no other closure agreed within {cfg.loop_pending_nodes} nodes "
@@ -147,7 +144,7 @@ class Backend:
 
     def settle(self) -> int:
         """The run has ended, so no closure still waiting will be confirmed: those the graph
-        already expects — Mahalanobis distance² from its estimate now (as in :meth:`propose`)
+        already expects — Mahalanobis distance² from its estimate now (:meth:`_surprise`)
         at most ``loop_gate``, so that a place that merely looks like another would have to
         lie where the graph already puts it — enter the graph as one last group, checked by
         χ² after the solve like every group; the rest are turned down with the reason.
@@ -159,10 +156,7 @@ class Backend:
         for p in waiting:
             if p.accepted:
                 continue
-            estimate, spread = self.graph.relative_marginal(p.reference, p.node)
-            e = geometry.relative(estimate, p.measurement)
-            own = np.linalg.inv(self.information(p.covariance))
-            p.surprise = float(e @ np.linalg.solve(spread + own, e))
+            p.surprise = self._surprise(p)
             if p.surprise <= cfg.loop_gate:
                 group.append(p)
             else:
@@ -180,6 +174,14 @@ class Backend:
             self._drop_rivals(group, rivals)
         self._enter(group)
         return sum(c.accepted for c in group)
+
+    def _surprise(self, record: LoopClosure) -> float:
+        """Mahalanobis distance² of ``record`` from the graph's estimate now, under the
+        graph's marginal covariance of the two nodes' relative pose plus its own."""
+        estimate, spread = self.graph.relative_marginal(record.reference, record.node)
+        e = geometry.relative(estimate, record.measurement)
+        own = np.linalg.inv(self.information(record.covariance))
+        return float(e @ np.linalg.solve(spread + own, e))
 
     def _drop_rivals(self, group: list[LoopClosure], rivals: list[LoopClosure]) -> None:
         """``rivals`` out of the graph, rejected in favour of ``group``."""
