@@ -106,7 +106,9 @@ def write_png(grid: np.ndarray, path: Path) -> None:
 
 
 def write_figure(grid: Any, poses: np.ndarray, path: Path, title: str) -> None:
-    """The map (cropped to its known cells) with axes in metres and the robot's path."""
+    """The map with axes in metres and the robot's path, cropped to the walls (a log's
+    no-return beams clear free space out to the scanner's range, 82 m on MIT CSAIL: the
+    known cells reach far past the building)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -115,11 +117,20 @@ def write_figure(grid: Any, poses: np.ndarray, path: Path, title: str) -> None:
     from kit import viz
 
     fig, ax = plt.subplots(figsize=(9, 7))
-    viz.plot_grid(grid.to_msg(), ax=ax, title=title, crop=True)
+    msg = grid.to_msg()
+    viz.plot_grid(msg, ax=ax, title=title)
     if len(poses):
         ax.plot(poses[:, 0], poses[:, 1], color="tab:red", lw=1.0, label="optimised path")
         ax.plot(*poses[0, :2], "o", color="tab:red", label="start")
         ax.legend(loc="best", fontsize=8)
+    walls = np.any(msg.data == 100)
+    x0, x1, y0, y1 = viz.known_extent(msg, occupied=bool(walls))
+    if len(poses):  # the whole path shows, even where it ran past the walls
+        x0, x1 = min(x0, poses[:, 0].min() - 0.5), max(x1, poses[:, 0].max() + 0.5)
+        y0, y1 = min(y0, poses[:, 1].min() - 0.5), max(y1, poses[:, 1].max() + 0.5)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
     ax.grid(True, alpha=0.3)
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)

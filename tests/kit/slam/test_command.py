@@ -63,3 +63,33 @@ def test_the_trajectory_in_tum_format_reads_in_evo_and_the_map_figure_has_metres
     # a figure, not the bare grid image: larger than the map's own cells
     with Image.open(tmp_path / "map.png") as png:
         assert png.size[0] > 500
+
+
+def test_the_map_figure_is_cropped_to_the_walls_and_the_path_not_to_far_free_space(tmp_path):
+    """A log's no-return beams clear free space out to the scanner's range (82 m on MIT
+    CSAIL); the figure shows the building: its walls (0.5 m around) and the whole path."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from kit.mapping import OccupancyGridMap
+    from kit.slam.command import write_figure
+
+    grid = OccupancyGridMap(0.1)
+    scan = msgs.LaserScan(angle_min=-0.2, angle_increment=0.1, range_min=0.1, range_max=60.0,
+                          ranges=np.array([2.0, 2.0, np.inf, 2.0, 2.0]))  # a beam with no return
+    for _ in range(5):
+        grid.insert_scan(scan, [0.0, 0.0, 0.0])
+    poses = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    captured = {}
+    close = plt.close
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(plt, "close", lambda fig: captured.setdefault("fig", fig))
+        write_figure(grid, poses, tmp_path / "map.png", "walls")
+    ax = captured["fig"].axes[0]
+    close(captured["fig"])
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert x1 < 3.0 and x0 <= -1.5 + 1e-9      # the walls at 2 m, the path back to -1 m
+    assert -1.0 < y0 < 0.0 < y1 < 1.0
+    assert grid.to_msg().info.width * 0.1 > 55.0  # the map itself reaches the free beam's end

@@ -24,3 +24,50 @@ def test_grid_map_and_scan_plots_draw_in_metres():
     points = ax.lines[-2].get_xydata()
     assert len(points) == 4 and np.allclose(points[0], [1.0 + np.cos(-0.7), 2 + np.sin(-0.7)],
                                             atol=1e-6)
+
+
+def _message(cells: np.ndarray, resolution: float = 0.05) -> msgs.OccupancyGrid:
+    rows, cols = cells.shape
+    return msgs.OccupancyGrid(info=msgs.MapMetaData(resolution=resolution, width=cols,
+                                                    height=rows),
+                              data=cells.astype(np.int8).ravel())
+
+
+def test_a_grid_larger_than_a_figure_is_drawn_in_blocks_that_keep_a_one_cell_wall():
+    """A 3 × 4100 corridor map (a log's beams reach 80 m): the image handed to matplotlib is
+    at most MAX_SIDE wide, a wall one cell thick still shows, a block is unknown only where
+    all its cells are, and the image spans the grid (padded to whole blocks)."""
+    cells = np.zeros((3, 4100), dtype=np.int16)
+    cells[:, 4000:] = -1
+    cells[1, 1001] = 100
+    grid = _message(cells)
+    ax = viz.plot_grid(grid)
+    image = ax.images[0].get_array()
+    k = 3  # ceil(4100 / 2048)
+    assert image.shape == (1, -(-4100 // k)) and max(image.shape) <= viz._grid.MAX_SIDE
+    shown = 1.0 - image[0]  # occupancy as drawn: 0 free, 0.5 unknown, 1 occupied
+    assert shown[1001 // k] == 1.0
+    assert shown[0] == 0.0 and shown[3999 // k] == 0.0  # block 1333 holds free cell 3999
+    assert np.all(shown[4002 // k:] == 0.5)
+    x0, x1, y0, y1 = ax.images[0].get_extent()
+    assert (x0, y0) == (0.0, 0.0) and np.isclose(x1, 1367 * k * 0.05) and np.isclose(y1, 3 * 0.05)
+
+
+def test_known_extent_is_numpys_quantile_of_the_known_cells_and_can_take_the_walls_alone():
+    rng = np.random.default_rng(3)
+    cells = rng.choice([-1, 0, 100], size=(70, 90), p=[0.6, 0.35, 0.05])
+    cells[5, 80] = 100
+    grid = _message(cells, resolution=0.1)
+    res = grid.info.resolution  # a message's float32 0.1
+    for occupied, known in ((False, cells >= 0), (True, cells == 100)):
+        rows, cols = np.nonzero(known)
+        for stray in (0.001, 0.2):
+            c0, c1 = np.quantile(cols, [stray, 1 - stray])
+            r0, r1 = np.quantile(rows, [stray, 1 - stray])
+            want = (max(0.0, c0 * res - 0.5), min(90 * res, (c1 + 1) * res + 0.5),
+                    max(0.0, r0 * res - 0.5), min(70 * res, (r1 + 1) * res + 0.5))
+            got = viz.known_extent(grid, stray=stray, occupied=occupied)
+            assert np.allclose(got, want, rtol=0, atol=1e-12), (occupied, stray, got, want)
+    unknown = _message(np.full((4, 5), -1))  # nothing known: the whole grid
+    res = unknown.info.resolution
+    assert viz.known_extent(unknown) == (0.0, 5 * res, 0.0, 4 * res)
