@@ -19,7 +19,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-from grader import bundle, grade, release
+from grader import grade
 from grader.feedback import write_feedback
 from grader.grade import close_servers
 from grader.gradebook import grade_class
@@ -40,6 +40,8 @@ NO_SECRET = (
 
 
 def _release(args: argparse.Namespace) -> int:
+    from grader import release  # nbformat, 1.3 s of imports the grading commands do without
+
     written = release.release(Path(args.solutions), Path(args.labs))
     for path in written:
         print(f"wrote {path}")
@@ -47,6 +49,8 @@ def _release(args: argparse.Namespace) -> int:
 
 
 def _check_release(args: argparse.Namespace) -> int:
+    from grader import release
+
     problems = release.check_release(Path(args.solutions), Path(args.labs))
     for p in problems:
         print(p)
@@ -173,6 +177,8 @@ def _feedback(args: argparse.Namespace) -> int:
 
 
 def _bundle(args: argparse.Namespace) -> int:
+    from grader import bundle
+
     written = bundle.bundle(Path(args.out), Path(args.root))
     print(f"wrote the student bundle to {args.out} ({len(written)} files): "
           f"`make lab` there installs it and opens the labs")
