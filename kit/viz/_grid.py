@@ -16,10 +16,10 @@ __all__ = ["crop_to_known", "known_extent", "plot_grid", "plot_map_trajectory", 
 
 
 OCCUPIED = 0.65
-"""map_server's default ``occupied_thresh``: the occupancy at which a cell counts as a wall."""
+"""map_server's default ``occupied_thresh``: a cell more likely occupied than this is a wall."""
 MAX_SIDE = 2048
-"""The longest side [pixels] of the image :func:`plot_grid` hands to matplotlib: a larger grid
-is shown by blocks of cells (a figure has fewer pixels than that across anyway)."""
+"""The longest side [pixels] of the image :func:`plot_grid` hands to matplotlib: a grid with
+more cells a side is shown in blocks of cells (a figure has fewer pixels across anyway)."""
 
 
 def _geometry(grid: OccupancyGridMap | msgs.OccupancyGrid) -> tuple[float, float, float, int, int]:
@@ -34,15 +34,15 @@ def _geometry(grid: OccupancyGridMap | msgs.OccupancyGrid) -> tuple[float, float
 
 def _known(grid: OccupancyGridMap | msgs.OccupancyGrid, occupied: bool = False) -> np.ndarray:
     """Which cells are known ``[row, col]``: a message's cells that are not −1 (every cell of
-    a log-odds grid); with ``occupied`` only those at map_server's ``occupied_thresh`` (0.65)
-    or above."""
+    a log-odds grid); with ``occupied`` only those above map_server's ``occupied_thresh``
+    (0.65), as its trinary maps count them."""
     _, _, _, rows, cols = _geometry(grid)
     if isinstance(grid, OccupancyGridMap):
         if occupied:
-            return grid.log_odds >= math.log(OCCUPIED / (1.0 - OCCUPIED))
+            return grid.log_odds > math.log(OCCUPIED / (1.0 - OCCUPIED))
         return np.ones((rows, cols), dtype=bool)
     cells = grid.data.reshape(rows, cols)
-    return cells >= round(100 * OCCUPIED) if occupied else cells >= 0
+    return cells > round(100 * OCCUPIED) if occupied else cells >= 0
 
 
 def _blocks(values: np.ndarray, k: int, fill: float) -> np.ndarray:

@@ -68,6 +68,9 @@ def test_known_extent_is_numpys_quantile_of_the_known_cells_and_can_take_the_wal
                     max(0.0, r0 * res - 0.5), min(70 * res, (r1 + 1) * res + 0.5))
             got = viz.known_extent(grid, stray=stray, occupied=occupied)
             assert np.allclose(got, want, rtol=0, atol=1e-12), (occupied, stray, got, want)
+    # a log-odds grid's walls are its cells above map_server's occupied_thresh, as in the map
+    log_odds = mapping.OccupancyGridMap.from_msg(grid)
+    assert viz.known_extent(log_odds, occupied=True) == viz.known_extent(grid, occupied=True)
     unknown = _message(np.full((4, 5), -1))  # nothing known: the whole grid
     res = unknown.info.resolution
     assert viz.known_extent(unknown) == (0.0, 5 * res, 0.0, 4 * res)
