@@ -3,6 +3,8 @@ update against the plain one, growing bounds and map_server files."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -144,3 +146,18 @@ def test_bad_input_is_rejected():
         m.save("never.yaml")
     with pytest.raises(ValueError, match="thresholds"):
         m.trinary(0.7, 0.6)
+
+
+def test_trinary_of_a_map_taller_than_its_row_blocks_is_map_servers_rule_on_every_cell():
+    """trinary works through a large map a block of rows at a time (no float copy of the
+    whole grid): every cell still gets map_server's rule, p > occupied_thresh → 100,
+    p < free_thresh → 0, −1 between, at the block boundaries and at the thresholds too."""
+    rng = np.random.default_rng(5)
+    grid = mapping.OccupancyGridMap(0.05)
+    grid.log_odds = rng.normal(0.0, 2.0, (700, 9)) * (rng.random((700, 9)) < 0.8)
+    at = [math.log(0.65 / 0.35), math.log(0.196 / 0.804)]
+    grid.log_odds[255:258, :2] = at  # across the first block boundary
+    p = 1.0 / (1.0 + np.exp(-grid.log_odds))
+    want = np.where(p > 0.65, 100, np.where(p < 0.196, 0, -1)).astype(np.int8)
+    assert np.array_equal(grid.trinary(), want)
+    assert set(np.unique(want).tolist()) == {-1, 0, 100}
