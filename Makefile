@@ -2,7 +2,8 @@
 #   make lab    copy labs/ into work/ (never overwriting your files) and start JupyterLab there
 #   make reset LAB=01   a fresh copy of one lab in work/, your old file kept beside it
 #   make demo   the whole see-think-act loop: SLAM map of the office, then navigation on it among people
-#               (PARAMS=FILE: a Nav2 parameter file for the navigation; default sim/params/uiabot_nav2_params.yaml)
+#               (PARAMS=FILE: a Nav2 parameter file for the navigation; default sim/params/uiabot_nav2_params.yaml;
+#               ARGS=--live: watch it in Foxglove, the live view's foxglove-sdk installed the first time)
 #   make test   ruff, mypy, pytest (with the labs executed) and nbval on solutions/
 #   make test-loaded   the same with every core kept busy (benchmarks/stress.py)
 # Instructors: make solutions re-executes solutions/ (KIT_FAST=1) and regenerates labs/.
@@ -16,6 +17,7 @@ BIN := $(VENV)/bin
 KIT_STAMP := $(VENV)/.kit
 LAB_STAMP := $(VENV)/.lab
 STAMP := $(VENV)/.installed
+LIVE_STAMP := $(VENV)/.live
 # --no-compile: the libraries' modules are compiled on first import, only those used
 INSTALL := $(BIN)/python -m kit._pip_progress
 PIP_ARGS := --no-compile
@@ -51,9 +53,16 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	mypy, gtsam, dask, ir-sim, ...): 3-5 min the first time" -- $(PIP_ARGS) -e ".[lab,dev]"
 	@touch $@
 
+# the live view's foxglove-sdk, for `make demo ARGS=--live` only (the developer tools have it)
+$(LIVE_STAMP): pyproject.toml | $(BIN)/python
+	@$(INSTALL) "make: installing the live view (foxglove-sdk) for --live" -- $(PIP_ARGS) \
+	-e ".[live]"
+	@touch $@
+
 # a command that needs less is served by the most complete install already there
 FOR_LAB := $(or $(wildcard $(STAMP)),$(LAB_STAMP))
 FOR_KIT := $(or $(wildcard $(STAMP)),$(wildcard $(LAB_STAMP)),$(KIT_STAMP))
+FOR_LIVE := $(if $(findstring --live,$(ARGS)),$(or $(wildcard $(STAMP)),$(LIVE_STAMP)),)
 
 lab: $(FOR_LAB)
 	$(BIN)/python -m grader.workdir copy
@@ -63,7 +72,7 @@ reset: $(FOR_KIT)
 	@test -n "$(LAB)" || { echo "usage: make reset LAB=01"; exit 2; }
 	$(BIN)/python -m grader.workdir reset $(LAB)
 
-demo: $(FOR_KIT)
+demo: $(FOR_KIT) $(FOR_LIVE)
 	$(BIN)/python -m sim demo --out out $(if $(PARAMS),--params $(PARAMS),) $(ARGS)
 
 lint: $(STAMP)

@@ -18,7 +18,9 @@ server (foxglove-sdk 0.30) accepts the WebSocket subprotocol ``foxglove.sdk.v1``
 messages as ``foxglove.websocket.v1`` under its current name, as ``foxglove_bridge`` 3.x —
 and refuses a client that offers only the old name.
 
-``foxglove_sdk`` is imported only when a view starts: ``import kit`` stays light.
+``foxglove`` is imported only when a view starts: ``import kit`` stays light. It comes with
+the kit's ``live`` extra (``pip install -e '.[live]'``; ``make demo ARGS=--live`` installs it),
+not with the labs' install: without it a view says how to get it.
 """
 
 from __future__ import annotations
@@ -99,9 +101,11 @@ class LiveView:
         try:
             import foxglove
             from foxglove.websocket import Capability
-        except ImportError as exc:  # pragma: no cover - a dependency of the kit
-            raise RuntimeError(f"the live view needs the foxglove-sdk package ({exc}); "
-                               f"pip install foxglove-sdk") from None
+        except ImportError:
+            raise ValueError("the live view needs the kit's live extra (foxglove-sdk, 53 MB, "
+                             "left out of the labs' install): in the kit's folder run "
+                             "`.venv/bin/pip install -e '.[live]'`, or `make demo "
+                             "ARGS=--live`, which installs it") from None
         from kit.bag import LATCHED_TOPICS
 
         self._foxglove = foxglove

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import struct
+import sys
 import time
 
 import numpy as np
@@ -145,3 +146,18 @@ def test_a_port_in_use_is_refused_with_the_address():
         with pytest.raises(ValueError, match=f"cannot serve the live view on 127.0.0.1:"
                                              f"{view.port}"):
             LiveView(port=view.port)
+
+
+def test_without_the_live_extra_a_view_says_how_to_install_it(monkeypatch, capsys, tmp_path):
+    """foxglove-sdk is the kit's ``live`` extra, not in the labs' install: asking for a live
+    view without it is one line naming the extra and the command, exit code 2, no traceback."""
+    from kit.cli import main as kit_main
+
+    for name in ("foxglove", "foxglove.websocket"):
+        monkeypatch.setitem(sys.modules, name, None)  # as if not installed
+    with pytest.raises(ValueError, match=r"pip install -e '\.\[live\]'"):
+        LiveView(port=0)
+    assert kit_main(["sim", "navigate", "--episodes", "1", "--live", "--out",
+                     str(tmp_path / "runs")]) == 2
+    err = capsys.readouterr().err
+    assert "live extra" in err and "make demo ARGS=--live" in err and "Traceback" not in err
