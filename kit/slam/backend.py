@@ -153,9 +153,7 @@ class Backend:
         cfg = self.config
         waiting, self._pending = self._pending, []
         group = []
-        for p in waiting:
-            if p.accepted:
-                continue
+        for p in waiting:  # never accepted: _enter takes a closure out of the waiting list
             p.surprise = self._surprise(p)
             if p.surprise <= cfg.loop_gate:
                 group.append(p)
