@@ -142,14 +142,27 @@ def _submodules(paths: list[str], prefix: str) -> list[str]:
     return names
 
 
+# Which CPU the machine's numerical libraries compile and dispatch for, as the grader's own
+# environment sets it: a site that pins numba's target (NUMBA_CPU_NAME=generic, so that its
+# caches serve every machine of a cluster), numpy's kernels or OpenBLAS's gets the same in
+# its sandboxes. Without them a submission's numba looks for code compiled for the host's
+# CPU, which the caches do not hold (they are keyed on the target), and compiles the kit's
+# functions again on its own CPU time; and its numpy could differ from the grader's in the
+# last bit.
+CPU_TARGET_VARIABLES = ("NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES", "NPY_DISABLE_CPU_FEATURES",
+                        "NPY_ENABLE_CPU_FEATURES", "OPENBLAS_CORETYPE")
+
+
 def _server_env(layer: str) -> dict[str, str]:
     """The whole environment of the server and its submissions: nothing of the grader's (no
-    course secret, no tokens), and the grader's process id so that an administrator can tell
-    whose sandboxes these are."""
+    course secret, no tokens) but the CPU target of numba and numpy
+    (:data:`CPU_TARGET_VARIABLES`), and the grader's process id so that an administrator can
+    tell whose sandboxes these are."""
     env = {"LANG": "C.UTF-8", "KIT_GRADING": "1", "KIT_FAST": "1", "MPLBACKEND": "Agg",
            "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
            "NUMBA_NUM_THREADS": "1", "PYTHONDONTWRITEBYTECODE": "1",
            "KIT_GRADER_PID": str(os.getpid())}
+    env.update({name: os.environ[name] for name in CPU_TARGET_VARIABLES if name in os.environ})
     if layer in ISOLATING:
         env["MPLCONFIGDIR"] = sandbox.MPL_DIR
     return env

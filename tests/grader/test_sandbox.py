@@ -219,27 +219,26 @@ def test_scratch_left_by_a_killed_rlimits_grader_is_removed_by_the_next(tmp_path
 NUMBA = r'''
 import json
 def lidar_cache():
+    import numba
     from sim import Simulation, raycast
     sim = Simulation(world="square", robot="uiabot", seed=1)
     for _ in sim.run(0.3):
         pass
     stats = raycast._cast_scan.stats
     return json.dumps({"hits": sum(stats.cache_hits.values()),
-                       "misses": sum(stats.cache_misses.values())})
+                       "misses": sum(stats.cache_misses.values()),
+                       "target": numba.config.CPU_NAME})
 '''
 
 
-@pytest.mark.parametrize("layer", ISOLATING)
-def test_numba_finds_its_compiled_lidar_in_a_submissions_prison(layer):
-    """The simulated lidar's compiled functions are loaded from numba's cache beside their
-    source (a private copy per submission), not compiled again in every one."""
-    if not layer_works(layer):
-        pytest.skip(f"the {layer} layer cannot run here")
+def lidar_cache_in_a_prison(layer: str) -> dict:
+    """What numba's cache gave the simulated lidar: on the host first (a fresh checkout has
+    no cache yet for the environment's CPU target, and this run writes it), then in a
+    submission's prison of a lab that leaves the simulator whole."""
     env = {"NUMBA_NUM_THREADS": "1", "KIT_FAST": "1"}
-    # on the host first: a fresh checkout has no cache yet, and this run writes it
     subprocess.run([sys.executable, "-c", NUMBA + "\nlidar_cache()"], capture_output=True,
                    check=True, env={**os.environ, **env})
-    server = GradingServer(load_lab("lab09"), layer, Limits(), slots=1)  # leaves sim whole
+    server = GradingServer(load_lab("lab09"), layer, Limits(), slots=1)
     try:
         session = server.session(1024, 120)
         session.ask("cells", {"cells": [{"position": 1, "first_line": "", "mode": "run",
@@ -250,7 +249,45 @@ def test_numba_finds_its_compiled_lidar_in_a_submissions_prison(layer):
     finally:
         server.close()
     assert header["status"] == "returned", header
-    assert json.loads(header["value"]) == {"hits": 1, "misses": 0}
+    return json.loads(header["value"])
+
+
+@pytest.mark.parametrize("layer", ISOLATING)
+def test_numba_finds_its_compiled_lidar_in_a_submissions_prison(layer):
+    """The simulated lidar's compiled functions are loaded from numba's cache beside their
+    source (a private copy per submission), not compiled again in every one."""
+    if not layer_works(layer):
+        pytest.skip(f"the {layer} layer cannot run here")
+    assert lidar_cache_in_a_prison(layer) == {"hits": 1, "misses": 0,
+                                              "target": os.environ.get("NUMBA_CPU_NAME")}
+
+
+def test_a_site_that_pins_numbas_cpu_target_has_its_caches_found_in_the_prison(monkeypatch):
+    """``NUMBA_CPU_NAME=generic`` (a site whose caches must serve every machine of a
+    cluster): the prison compiles for the same target, so the cache the host wrote for it is
+    found; before, the prison's numba looked for code for the host's own CPU."""
+    layer = next((layer for layer in ISOLATING if layer_works(layer)), None)
+    if layer is None:
+        pytest.skip("no isolating layer can run here")
+    monkeypatch.setenv("NUMBA_CPU_NAME", "generic")
+    assert lidar_cache_in_a_prison(layer) == {"hits": 1, "misses": 0, "target": "generic"}
+
+
+def test_the_prisons_environment_takes_the_cpu_target_and_nothing_else_of_the_graders(
+        monkeypatch):
+    from grader.server import CPU_TARGET_VARIABLES, _server_env
+
+    for name in CPU_TARGET_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("NUMBA_CPU_NAME", "haswell")
+    monkeypatch.setenv("NPY_DISABLE_CPU_FEATURES", "X86_V4 AVX512_ICL")
+    monkeypatch.setenv("KIT_COURSE_SECRET", "s3cret")
+    monkeypatch.setenv("AWS_SECRET_ACCESS_KEY", "k3y")
+    env = _server_env("rlimits")
+    assert env["NUMBA_CPU_NAME"] == "haswell"
+    assert env["NPY_DISABLE_CPU_FEATURES"] == "X86_V4 AVX512_ICL"
+    assert not {"NUMBA_CPU_FEATURES", "NPY_ENABLE_CPU_FEATURES", "OPENBLAS_CORETYPE"} & set(env)
+    assert not {"KIT_COURSE_SECRET", "AWS_SECRET_ACCESS_KEY", "PATH", "HOME"} & set(env)
 
 
 def test_a_kit_other_users_cannot_read_leaves_no_isolating_layer_and_says_why(tmp_path):
