@@ -155,7 +155,7 @@ CPU_TARGET_VARIABLES = ("NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES", "NPY_DISABLE_CPU
 
 def _server_env(layer: str) -> dict[str, str]:
     """The whole environment of the server and its submissions: nothing of the grader's (no
-    course secret, no tokens) but the CPU target of numba and numpy
+    course secret, no tokens) but the CPU target of numba, numpy and OpenBLAS
     (:data:`CPU_TARGET_VARIABLES`), and the grader's process id so that an administrator can
     tell whose sandboxes these are."""
     env = {"LANG": "C.UTF-8", "KIT_GRADING": "1", "KIT_FAST": "1", "MPLBACKEND": "Agg",
