@@ -355,8 +355,8 @@ class OccupancyGridMap:
             return 0.5
         return float(probability(self.log_odds[row, col]))
 
-    def trinary(self, free_thresh: float = 0.196, occupied_thresh: float = 0.65
-                ) -> NDArray[np.int8]:
+    def trinary(self, free_thresh: float = maps.FREE_THRESH,
+                occupied_thresh: float = maps.OCCUPIED_THRESH) -> NDArray[np.int8]:
         """map_server's trinary values: 100 where ``p > occupied_thresh``, 0 where
         ``p < free_thresh``, −1 (unknown) between."""
         if not 0 <= free_thresh <= occupied_thresh <= 1:
@@ -371,8 +371,8 @@ class OccupancyGridMap:
         return out
 
     def to_msg(self, frame_id: str = "map", stamp: msgs.Time | None = None,
-               free_thresh: float = 0.196, occupied_thresh: float = 0.65
-               ) -> msgs.OccupancyGrid:
+               free_thresh: float = maps.FREE_THRESH,
+               occupied_thresh: float = maps.OCCUPIED_THRESH) -> msgs.OccupancyGrid:
         """The trinary map as a ``nav_msgs/OccupancyGrid``."""
         rows, cols = self.shape
         info = msgs.MapMetaData(
@@ -382,8 +382,8 @@ class OccupancyGridMap:
         return msgs.OccupancyGrid(msgs.Header(stamp or msgs.Time(), frame_id), info,
                                   self.trinary(free_thresh, occupied_thresh).ravel())
 
-    def save(self, path: str | Path, free_thresh: float = 0.196,
-             occupied_thresh: float = 0.65) -> Path:
+    def save(self, path: str | Path, free_thresh: float = maps.FREE_THRESH,
+             occupied_thresh: float = maps.OCCUPIED_THRESH) -> Path:
         """Write a map_server map: ``path`` (YAML) and a PGM beside it; returns the PGM."""
         if self._empty:
             raise ValueError("the map is empty: insert a scan first")

@@ -23,7 +23,12 @@ from numpy.typing import NDArray
 
 from kit import geometry, msgs
 
-__all__ = ["MapError", "read_map", "read_pgm", "write_map"]
+__all__ = ["FREE_THRESH", "OCCUPIED_THRESH", "MapError", "read_map", "read_pgm", "write_map"]
+
+FREE_THRESH = 0.196
+"""map_server's default ``free_thresh``: a cell less likely occupied than this is free."""
+OCCUPIED_THRESH = 0.65
+"""map_server's default ``occupied_thresh``: a cell more likely occupied than this is a wall."""
 
 
 class MapError(ValueError):
@@ -129,8 +134,8 @@ def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
     try:
         resolution = float(meta["resolution"])
         origin = [float(v) for v in meta["origin"]]
-        occupied = float(meta.get("occupied_thresh", 0.65))
-        free = float(meta.get("free_thresh", 0.196))
+        occupied = float(meta.get("occupied_thresh", OCCUPIED_THRESH))
+        free = float(meta.get("free_thresh", FREE_THRESH))
         negate = int(meta.get("negate", 0))
     except (TypeError, ValueError):
         raise MapError(f"{yaml_path}: resolution, occupied_thresh and free_thresh must be "
@@ -167,8 +172,8 @@ def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
     return msgs.OccupancyGrid(msgs.Header(frame_id=frame_id), info, grid.ravel())
 
 
-def write_map(grid: msgs.OccupancyGrid, path: str | Path, free_thresh: float = 0.196,
-              occupied_thresh: float = 0.65) -> Path:
+def write_map(grid: msgs.OccupancyGrid, path: str | Path, free_thresh: float = FREE_THRESH,
+              occupied_thresh: float = OCCUPIED_THRESH) -> Path:
     """Write ``path`` (YAML) and a PGM beside it as map_saver does: free 254, occupied 0,
     unknown 205, trinary mode. Returns the PGM's path."""
     yaml_path = Path(path)

@@ -10,13 +10,12 @@ from numpy.typing import ArrayLike
 
 from kit import msgs, perception
 from kit.mapping import OccupancyGridMap
+from kit.maps import OCCUPIED_THRESH as OCCUPIED
 from kit.viz._base import axes as _axes
 
 __all__ = ["crop_to_known", "known_extent", "plot_grid", "plot_map_trajectory", "plot_scan"]
 
 
-OCCUPIED = 0.65
-"""map_server's default ``occupied_thresh``: a cell more likely occupied than this is a wall."""
 MAX_SIDE = 2048
 """The longest side [pixels] of the image :func:`plot_grid` hands to matplotlib: a grid with
 more cells a side is shown in blocks of cells (a figure has fewer pixels across anyway)."""
