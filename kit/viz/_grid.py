@@ -52,7 +52,11 @@ def _blocks(values: np.ndarray, k: int, fill: float) -> np.ndarray:
     padded[:rows, :cols] = values
     shaped = padded.reshape(padded.shape[0] // k, k, padded.shape[1] // k, k)
     if np.issubdtype(values.dtype, np.floating):
-        return np.fmax.reduce(np.fmax.reduce(shaped, axis=3), axis=1)
+        # keepdims=True: numpy 2.5's stubs lose reduce's plain overload when mypy checks
+        # the kit as Python 3.10 (a fresh machine with Python >= 3.12 gets numpy 2.5)
+        most = np.fmax.reduce(np.fmax.reduce(shaped, axis=3, keepdims=True), axis=1,
+                              keepdims=True)
+        return most[:, 0, :, 0]
     return shaped.max(axis=(1, 3))
 
 

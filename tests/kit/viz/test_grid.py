@@ -74,3 +74,28 @@ def test_known_extent_is_numpys_quantile_of_the_known_cells_and_can_take_the_wal
     unknown = _message(np.full((4, 5), -1))  # nothing known: the whole grid
     res = unknown.info.resolution
     assert viz.known_extent(unknown) == (0.0, 5 * res, 0.0, 4 * res)
+
+
+def test_blocks_are_each_blocks_largest_value_unknown_only_where_the_whole_block_is():
+    """The k × k reduction against a loop over the blocks: probabilities with NaN (never
+    observed) take the largest known value of a block, NaN only where the whole block is
+    NaN; a message's int8 cells take the largest value, -1 where all are unknown; the padding
+    at the top and right is the fill."""
+    rng = np.random.default_rng(3)
+    p = rng.random((7, 11))
+    p[rng.random(p.shape) < 0.5] = np.nan
+    p[0:3, 0:3] = np.nan                       # one block wholly unknown
+    cells = rng.integers(-1, 101, size=(7, 11)).astype(np.int8)
+    cells[3:6, 3:6] = -1
+    for values, fill in ((p, np.nan), (cells, -1)):
+        k = 3
+        got = viz._grid._blocks(values, k, fill)
+        assert got.shape == (3, 4) and got.dtype == values.dtype
+        for r in range(3):
+            for c in range(4):
+                block = values[r * k:(r + 1) * k, c * k:(c + 1) * k].ravel().tolist()
+                known = [v for v in block if v == v]      # NaN is not equal to itself
+                want = max(known) if known else fill
+                assert got[r, c] == want or (want != want and got[r, c] != got[r, c])
+    assert np.isnan(viz._grid._blocks(p, 3, np.nan)[0, 0])
+    assert viz._grid._blocks(cells, 3, -1)[1, 1] == -1
