@@ -9,9 +9,10 @@ and after an exercise::
 
     check(forward_kinematics)
 
-``check`` runs the exercise's public cases in the kernel and prints one verdict: every case
-passed; or "not implemented yet"; or how many cases fail and, for up to three of them, what was
-expected, what came back and a hint. It never raises, so a student's notebook always runs top
+``check`` runs the exercise's public cases in the kernel (with a progress bar where they are
+closed-loop episodes, which take seconds) and prints one verdict: every case passed; or "not
+implemented yet"; or how many cases fail and, for up to three of them, what was expected, what
+came back and a hint. It never raises, so a student's notebook always runs top
 to bottom. While a submission is being graded (``KIT_GRADING=1``) it does nothing: grading runs
 the cases itself. Under nbgrader's autograder (``NBGRADER_EXECUTION=autograde``) a failing
 check raises, since that is how nbgrader scores a test cell.
@@ -26,13 +27,14 @@ from __future__ import annotations
 import os
 import sys
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
 from grader import guard, runall
 from grader.compare import compare, matches
 from grader.spec import Case, Exercise, LabSpec, load_lab
+from kit.progress import progress
 
 SHOWN_FAILURES = 3
 
@@ -145,7 +147,10 @@ class Checker:
             if os.environ.get("NBGRADER_EXECUTION") == "autograde":
                 raise AssertionError(verdict)
             return
-        results = [run_case(ex, fn, case) for case in ex.public]
+        cases: Iterable[Case] = ex.public
+        if ex.harness:  # closed-loop episodes take seconds each: show that one is running
+            cases = progress(ex.public, desc=f"checking {ex.function}", unit="episode")
+        results = [run_case(ex, fn, case) for case in cases]
         if any(r.status == "not implemented" for r in results):
             print(f"… {ex.id}: not implemented yet")
             if os.environ.get("NBGRADER_EXECUTION") == "autograde":

@@ -244,6 +244,30 @@ def test_check_refuses_the_kit_reference_as_grading_does(capsys):
     assert kit.kinematics.turning_radius(1.0, 0.5) == 2.0
 
 
+def test_check_shows_a_bar_over_closed_loop_episodes_and_none_under_kit_fast(capsys,
+                                                                             monkeypatch):
+    """The capstone's check runs a simulated episode (seconds on a slow laptop): a progress
+    bar names what runs; lab 01's instant cases have none; KIT_FAST=1 (CI, the stored
+    outputs) draws no bar either way."""
+    def make_controller(robot):
+        raise NotImplementedError
+
+    def turning_radius(linear, angular):
+        return math.inf if angular == 0 else linear / angular
+
+    monkeypatch.delenv("KIT_FAST", raising=False)
+    checker("lab11")(make_controller)
+    out, err = capsys.readouterr()
+    assert "not implemented yet" in out and "checking make_controller" in err
+    checker("lab01")(turning_radius)
+    out, err = capsys.readouterr()
+    assert "✓ lab01.turning_radius" in out and err == ""
+    monkeypatch.setenv("KIT_FAST", "1")
+    checker("lab11")(make_controller)
+    out, err = capsys.readouterr()
+    assert "not implemented yet" in out and err == ""
+
+
 def test_check_is_silent_while_grading(capsys, monkeypatch):
     monkeypatch.setenv("KIT_GRADING", "1")
     checker("lab02")(lambda: 1)
