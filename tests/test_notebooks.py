@@ -182,13 +182,14 @@ def test_nbvals_sanitizer_unsigns_zeros_and_nothing_else():
 # ------------------------------------------------------------------ progress where it is long
 
 LONG = 110
-"""A cell's cost in the kernel beyond which it must show progress, in units of the
-calibration below (its CPU time divided by the calibration's): about 5 s of CPU on the 2-core
-machine the kit is developed on, whose calibration takes about 0.045 s there at its usual
-speed. A cost in units, not seconds: a machine three times slower (a shared host, a student's
-laptop) takes three times longer over every cell and over the calibration alike, and the same
-cells must show a bar (on such a host, 0.14 s a calibration, the capstone's check took 5.4 s
-and failed a threshold of 5 s, at 40 units)."""
+"""A cell's cost in the kernel beyond which it must show progress, in units of the calibration
+below (its CPU time divided by the calibration's): about 5 s of CPU on the 2-core machine the
+kit is developed on, whose calibration takes an estimated 0.04–0.05 s there at its usual speed
+(0.11–0.15 s measured on a day its host ran three times slower). A cost in units, not seconds: a
+machine three times slower (a shared host, a student's laptop) takes three times longer over
+every cell and over the calibration alike, and the same cells must show a bar (on such a host,
+0.14 s a calibration, the capstone's check took 5.4 s and failed a threshold of 5 s, at 40
+units)."""
 
 _CALIBRATION = r'''
 def _kit_calibrate():
