@@ -23,12 +23,30 @@ from numpy.typing import NDArray
 
 from kit import geometry, msgs
 
-__all__ = ["FREE_THRESH", "OCCUPIED_THRESH", "MapError", "read_map", "read_pgm", "write_map"]
+__all__ = ["FREE_THRESH", "OCCUPIED_THRESH", "MapError", "read_map", "read_pgm", "saved_values",
+           "write_map"]
 
 FREE_THRESH = 0.196
 """map_server's default ``free_thresh``: a cell less likely occupied than this is free."""
 OCCUPIED_THRESH = 0.65
 """map_server's default ``occupied_thresh``: a cell more likely occupied than this is a wall."""
+
+
+def saved_values(free_thresh: float = FREE_THRESH,
+                 occupied_thresh: float = OCCUPIED_THRESH) -> tuple[int, int]:
+    """map_saver's trinary rule for grid values: ``(free, occupied)`` with ``0 ≤ v ≤ free``
+    written free (254), ``occupied ≤ v ≤ 100`` written occupied (0) and every other value
+    (−1, 101…127, those between) unknown (205); each is ``100 · thresh`` rounded to the
+    nearest integer, halves to even (C's ``rint``, as Nav2's ``map_io`` rounds).
+
+    >>> saved_values(), saved_values(0.25, 0.65)
+    ((20, 65), (25, 65))
+    """
+    if not 0.0 <= free_thresh <= occupied_thresh <= 1.0:
+        raise ValueError("thresholds must satisfy 0 <= free_thresh <= occupied_thresh <= 1; got "
+                         f"free_thresh={free_thresh}, occupied_thresh={occupied_thresh}")
+    free, occupied = (int(np.rint(100.0 * t)) for t in (free_thresh, occupied_thresh))
+    return free, occupied
 
 
 class MapError(ValueError):
@@ -174,15 +192,17 @@ def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
 
 def write_map(grid: msgs.OccupancyGrid, path: str | Path, free_thresh: float = FREE_THRESH,
               occupied_thresh: float = OCCUPIED_THRESH) -> Path:
-    """Write ``path`` (YAML) and a PGM beside it as map_saver does: free 254, occupied 0,
-    unknown 205, trinary mode. Returns the PGM's path."""
+    """Write ``path`` (YAML) and a PGM beside it as map_saver does in trinary mode: free 254,
+    occupied 0, unknown 205, the cells classed by the thresholds given (:func:`saved_values`),
+    which the YAML then carries. Returns the PGM's path."""
+    free, occupied = saved_values(free_thresh, occupied_thresh)
     yaml_path = Path(path)
     pgm_path = yaml_path.with_suffix(".pgm")
     info = grid.info
     cells = grid.data.reshape(info.height, info.width)
     image = np.full(cells.shape, 205, dtype=np.uint8)
-    image[(cells >= 0) & (cells <= 25)] = 254
-    image[cells >= 65] = 0
+    image[(cells >= occupied) & (cells <= 100)] = 0
+    image[(cells >= 0) & (cells <= free)] = 254       # map_saver asks "free?" first
     header = (f"P5\n# CREATOR: kit.maps {info.resolution:.3f} m/pix\n"
               f"{info.width} {info.height}\n255\n")
     pgm_path.write_bytes(header.encode() + np.flipud(image).tobytes())

@@ -58,6 +58,46 @@ def test_write_then_read_round_trips(tmp_path):
     np.testing.assert_array_equal(back.data, grid.data)
 
 
+def _map_saver_pixel(cell: int, free_thresh: float, occupied_thresh: float) -> int:
+    """Nav2's map_saver (nav2_map_server/src/map_io.cpp, trinary mode), cell by cell."""
+    free_int, occupied_int = round(free_thresh * 100.0), round(occupied_thresh * 100.0)
+    if cell < 0 or 100 < cell:
+        return 205
+    if cell <= free_int:
+        return 254
+    if occupied_int <= cell:
+        return 0
+    return 205
+
+
+@pytest.mark.parametrize("free_thresh, occupied_thresh", [
+    (maps.FREE_THRESH, maps.OCCUPIED_THRESH), (0.25, 0.65), (0.3, 0.7), (0.125, 0.625),
+    (0.5, 0.5), (0.0, 1.0)])
+def test_write_map_classes_every_cell_value_by_the_thresholds_it_writes(
+        tmp_path, free_thresh, occupied_thresh):
+    """Every int8 value, as map_saver writes it with those thresholds (0.125 and 0.625: the
+    halves round to even, as C's rint does); the YAML carries the same thresholds."""
+    data = np.arange(-128, 128, dtype=np.int8)
+    info = msgs.MapMetaData(resolution=0.1, width=16, height=16)
+    pgm = maps.write_map(msgs.OccupancyGrid(msgs.Header(frame_id="map"), info, data),
+                         tmp_path / "m.yaml", free_thresh, occupied_thresh)
+    pixels = np.flipud(maps.read_pgm(pgm)).ravel()
+    expected = [_map_saver_pixel(int(v), free_thresh, occupied_thresh) for v in data]
+    assert pixels.tolist() == expected
+    yaml = (tmp_path / "m.yaml").read_text()
+    assert f"occupied_thresh: {occupied_thresh}\n" in yaml
+    assert f"free_thresh: {free_thresh}\n" in yaml
+
+
+def test_write_map_refuses_thresholds_out_of_order(tmp_path):
+    grid = msgs.OccupancyGrid(msgs.Header(frame_id="map"),
+                              msgs.MapMetaData(resolution=0.1, width=2, height=1),
+                              np.zeros(2, dtype=np.int8))
+    with pytest.raises(ValueError, match="free_thresh <= occupied_thresh"):
+        maps.write_map(grid, tmp_path / "m.yaml", 0.7, 0.3)
+    assert not (tmp_path / "m.pgm").exists() and not (tmp_path / "m.yaml").exists()
+
+
 def test_truncated_and_malformed_maps_name_the_file(tmp_path):
     (tmp_path / "m.pgm").write_bytes(b"P5\n4 4\n255\n" + bytes(10))
     (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")

@@ -56,7 +56,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from kit import geometry, msgs
+from kit import geometry, maps, msgs
 
 __all__ = [
     "OCCUPIED",
@@ -72,10 +72,12 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-OCCUPIED = 65
-"""Grid value from which a cell is an obstacle (map_server's occupied_thresh 0.65)."""
-FREE_BELOW = 20
-"""Grid values in [0, FREE_BELOW) are free (map_server's free_thresh 0.196)."""
+OCCUPIED = maps.saved_values()[1]
+"""Grid value from which a cell is an obstacle: 65, as map_saver writes a grid with the
+default ``occupied_thresh`` 0.65."""
+FREE_BELOW = math.ceil(100.0 * maps.FREE_THRESH)
+"""Grid values in [0, FREE_BELOW) are free: 20, those below the default ``free_thresh``
+0.196 as map_server reads them."""
 Method = Literal["numba", "numpy"]
 Lookup = Literal["cells", "exact"]
 
