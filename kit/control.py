@@ -272,7 +272,7 @@ def simulate_motor(motor: DCMotor, controller: Any, setpoint: ArrayLike, dt: flo
     """
     r = np.asarray(setpoint, dtype=np.float64)
     limit = motor.voltage if voltage_limit is None else voltage_limit
-    state = np.zeros(2)
+    state: FloatArray = np.zeros(2)
     h = dt / substeps
     speed, volts, amps = np.empty(len(r)), np.empty(len(r)), np.empty(len(r))
     for k, target in enumerate(r):

@@ -257,9 +257,9 @@ class FusionFilter:
     def reset(self) -> None:
         """Back to the initial pose and covariance, with no time and no sensor history."""
         pose, variance = self._initial
-        self.x = np.zeros(6)
+        self.x: FloatArray = np.zeros(6)
         self.x[:3] = pose
-        self.P = np.eye(6) * variance
+        self.P: FloatArray = np.eye(6) * variance
         self.time: float | None = None
         self._first_pose: dict[str, FloatArray] = {}
         self._last_pose: dict[str, tuple[float, FloatArray, FloatArray]] = {}

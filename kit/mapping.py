@@ -242,7 +242,7 @@ class OccupancyGridMap:
         self.resolution = float(np.float32(resolution))  # as OccupancyGrid stores it
         self.model = model or InverseSensorModel()
         self.update = update
-        self.log_odds = np.zeros((0, 0))
+        self.log_odds: FloatArray = np.zeros((0, 0))
         self.origin = np.zeros(2) if origin is None else np.asarray(origin, dtype=np.float64)
         if self.origin.shape != (2,) or not np.all(np.isfinite(self.origin)):
             raise ValueError(f"origin is (x, y) [m]; got {origin!r}")
@@ -308,12 +308,12 @@ class OccupancyGridMap:
         box = (int(hi[1] - lo[1]) + 1, int(hi[0] - lo[0]) + 1)
         local = cells - lo
         at = (int(local[0, 0]), int(local[0, 1]))
-        change = np.zeros(box, dtype=self.log_odds.dtype)
+        traced = np.zeros(box, dtype=self.log_odds.dtype)
         touched = np.zeros(box, dtype=self.log_odds.dtype)
-        run(change, at, local[1:], hit, m.l_free, m.l_occupied, -np.inf, np.inf)
+        run(traced, at, local[1:], hit, m.l_free, m.l_occupied, -np.inf, np.inf)
         run(touched, at, local[1:], hit, 1.0, 1.0, -np.inf, np.inf)
         rows, cols = np.nonzero(touched)
-        change = change[rows, cols]
+        change = traced[rows, cols]
         rows, cols = rows + int(lo[1]), cols + int(lo[0])
         new = np.asarray(self.update(self.log_odds[rows, cols], change, m.l_min, m.l_max),
                          dtype=np.float64)

@@ -21,7 +21,7 @@ move (x, y) over one interval are offered:
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,6 +44,8 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+Real = float | np.floating[Any] | NDArray[np.floating[Any]]
+"""One step's value (a float or numpy scalar) or many steps' (an array)."""
 Method = Literal["exact", "midpoint", "euler"]
 _METHODS = ("exact", "midpoint", "euler")
 
@@ -104,8 +106,8 @@ def ticks_to_travel(delta_ticks: ArrayLike, metres_per_tick: float) -> FloatArra
     return np.asarray(delta_ticks, dtype=np.float64) * float(metres_per_tick)
 
 
-def _increments(theta: FloatArray, d_right: FloatArray, d_left: FloatArray,
-                wheel_separation: float, method: str) -> tuple[FloatArray, FloatArray, FloatArray]:
+def _increments(theta: Real, d_right: Real, d_left: Real, wheel_separation: float, method: str
+                ) -> tuple[Real, Real, Real]:
     if method not in _METHODS:
         raise ValueError(f"method must be one of {_METHODS}; got {method!r}")
     if not wheel_separation > 0:
@@ -123,7 +125,7 @@ def _increments(theta: FloatArray, d_right: FloatArray, d_left: FloatArray,
     return length * np.cos(heading), length * np.sin(heading), dtheta
 
 
-def _sinc(x: FloatArray) -> FloatArray:
+def _sinc(x: Real) -> Real:
     """``np.sinc``, with the same arithmetic on a scalar without the ufunc calls."""
     if isinstance(x, float):
         y = math.pi * (x if x != 0 else 1.0e-20)
@@ -350,9 +352,9 @@ class WheelOdometry:
         self.k = (float(k_right), float(k_left))
         self.method: Method = method
         self.pose = _single_pose(initial_pose, "initial_pose")
-        self.covariance = np.zeros((3, 3))
-        self.velocity = np.zeros(2)
-        self.twist_covariance = np.diag([1e-9, UNUSED_VARIANCE, 1e-9])
+        self.covariance: FloatArray = np.zeros((3, 3))
+        self.velocity: FloatArray = np.zeros(2)
+        self.twist_covariance: FloatArray = np.diag([1e-9, UNUSED_VARIANCE, 1e-9])
         self._last: tuple[int, int, float] | None = None
 
     @classmethod

@@ -237,7 +237,8 @@ def scan_to_points_tf(scan: msgs.LaserScan, tree: TransformTree, target_frame: s
         return T.apply(local)[:, :2]
     times = beam_times(scan)[valid]
     first, last = float(times[0]), float(times[-1])
-    knots = np.linspace(first, last, max(2, math.ceil((last - first) / DESKEW_STEP) + 1))
+    knots = np.linspace(first, last, max(2, math.ceil((last - first) / DESKEW_STEP) + 1),
+                        dtype=np.float64)
     R, t = _matrices(tree, fixed_frame, laser, knots)
     k = np.clip(np.searchsorted(knots, times, side="right") - 1, 0, len(knots) - 2)
     f = ((times - knots[k]) / (knots[k + 1] - knots[k]))[:, None]

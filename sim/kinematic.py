@@ -71,7 +71,7 @@ class DiffDriveModel:
         self.rng = np.random.default_rng(seed)
         self.time = 0.0
         self.pose = np.zeros(3)
-        self.wheel_speeds = np.zeros(2)  # actual (right, left) [rad/s]
+        self.wheel_speeds: NDArray[np.float64] = np.zeros(2)  # actual (right, left) [rad/s]
         self._wheel_angle = np.zeros(2)  # total rotation [rad]
         modulus = 1 << robot.counter_bits
         self._tick_offset = (np.array(initial_ticks, dtype=np.int64) % modulus

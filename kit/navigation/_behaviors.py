@@ -39,7 +39,7 @@ class Behavior:
         self.simulate_ahead_time = float(simulate_ahead_time)
         self.reason = ""
         self._t0 = 0.0
-        self._start = np.zeros(3)
+        self._start: FloatArray = np.zeros(3)
 
     def start(self, time: float, pose: ArrayLike) -> None:
         self._t0 = float(time)

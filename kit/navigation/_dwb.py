@@ -231,7 +231,7 @@ class DwbController:
         """Centres cheaper than this skip the footprint check (0: check every pose)."""
         self.footprint = (np.asarray(footprint, dtype=np.float64) if footprint is not None
                           else np.array([[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]]))
-        self.path = np.zeros((0, 2))
+        self.path: FloatArray = np.zeros((0, 2))
         self.goal_yaw: float | None = None
         self._index = 0
         self._outline: FloatArray | None = None
@@ -239,7 +239,7 @@ class DwbController:
         self.last: Trajectories | None = None
         self._flips: dict[str, int] = {}
         self._last_sign = (0, 0)
-        self._since = np.zeros(3)
+        self._since: FloatArray = np.zeros(3)
         self._in_window = self._rotating = False
 
     def set_plan(self, path: ArrayLike, goal_yaw: float | None = None) -> None:
@@ -330,7 +330,7 @@ class DwbController:
         if seed.all():
             raise ControlError("the path leaves the local costmap before it starts")
         dist = ndimage.distance_transform_edt(seed)
-        dist[costmap.costs >= LETHAL_OBSTACLE] = float(np.hypot(*costmap.costs.shape))
+        dist[costmap.costs >= LETHAL_OBSTACLE] = float(np.hypot(costmap.height, costmap.width))
         return np.asarray(dist, dtype=np.float64)
 
     @staticmethod
@@ -339,7 +339,7 @@ class DwbController:
         cols = np.floor((xy[..., 0] - costmap.origin[0]) / res).astype(int)
         rows = np.floor((xy[..., 1] - costmap.origin[1]) / res).astype(int)
         ok = (rows >= 0) & (rows < grid.shape[0]) & (cols >= 0) & (cols < grid.shape[1])
-        out = np.full(xy.shape[:-1], float(np.hypot(*grid.shape)))
+        out = np.full(xy.shape[:-1], float(np.hypot(grid.shape[0], grid.shape[1])))
         out[ok] = grid[rows[ok], cols[ok]]
         return out
 

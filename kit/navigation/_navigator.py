@@ -179,7 +179,7 @@ class Navigator:
                 self.behaviors[i] = Unavailable(behavior.name)
         self.state = _State()
         self.events: list[NavigationEvent] = []
-        self.path = np.zeros((0, 2))
+        self.path: FloatArray = np.zeros((0, 2))
         self._local: Costmap | None = None
         self._local_due = 0.0
         self._blind = False

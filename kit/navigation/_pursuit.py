@@ -70,7 +70,7 @@ class PurePursuit:
             raise ValueError("speed, lookahead and max_angular_velocity must be positive")
         self.speed, self.lookahead = float(speed), float(lookahead)
         self.max_angular_velocity = float(max_angular_velocity)
-        self.path = np.zeros((0, 2))
+        self.path: FloatArray = np.zeros((0, 2))
         self._index = 0
 
     def set_plan(self, path: ArrayLike) -> None:
@@ -181,11 +181,11 @@ class RegulatedPurePursuit:
         self.curvature, self.speed = curvature, speed
         self.footprint = (np.asarray(footprint, dtype=np.float64) if footprint is not None
                           else np.array([[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]]))
-        self.path = np.zeros((0, 2))
+        self.path: FloatArray = np.zeros((0, 2))
         self.goal_yaw: float | None = None
         self._index = 0
         self._outline: FloatArray | None = None
-        self.last_carrot = np.zeros(2)
+        self.last_carrot: FloatArray = np.zeros(2)
 
     def set_plan(self, path: ArrayLike, goal_yaw: float | None = None) -> None:
         """A new path ((N, 2) [m], map frame) and, optionally, the goal's heading."""
@@ -302,7 +302,7 @@ class RegulatedPurePursuit:
         step = costmap.resolution / max(abs(v), 1e-6)
         if abs(w) > 1e-6:
             step = min(step, 0.05 / abs(w))   # a turn sweeps the corners faster than the centre
-        times = np.arange(step, horizon + 1e-9, step)
+        times: FloatArray = np.arange(step, horizon + 1e-9, step, dtype=np.float64)
         if len(times) == 0 or times[-1] < horizon - 1e-9:
             # creeping (a step longer than the horizon) is checked at the horizon too, or a
             # robot starting from standstill beside a wall is never checked at all

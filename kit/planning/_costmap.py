@@ -214,6 +214,7 @@ def static_layer(grid: msgs.OccupancyGrid, *, track_unknown_space: bool = False,
     info = grid.info
     value = grid.data.astype(np.uint8).reshape(info.height, info.width).astype(np.int64)
     lethal = max(min(int(lethal_cost_threshold), 100), 0)
+    cost: NDArray[np.int64]
     if trinary_costmap:
         cost = np.zeros(value.shape, dtype=np.int64)
     else:
@@ -456,4 +457,5 @@ def apply_keepout(costs: ArrayLike, mask: msgs.OccupancyGrid, resolution: float,
     the layers, so a keep-out zone is lethal but not inflated (as in Nav2).
     """
     c = _check_costs(costs)
-    return apply_keepout_costs(c, keepout_costs(mask, c.shape, resolution, origin))
+    height, width = c.shape
+    return apply_keepout_costs(c, keepout_costs(mask, (height, width), resolution, origin))

@@ -719,8 +719,8 @@ class LayeredCostmap:
             polygon = cells_in_polygon(geometry.transform_points(pose, self.footprint),
                                        self.shape, self.resolution, self.origin)
         self._positioned()
-        master = np.full(self.shape, NO_INFORMATION if p.track_unknown_space else FREE_SPACE,
-                         dtype=np.uint8)
+        master: NDArray[np.uint8] = np.full(
+            self.shape, NO_INFORMATION if p.track_unknown_space else FREE_SPACE, dtype=np.uint8)
         for layer in p.layers:
             if not layer.enabled:
                 continue

@@ -72,7 +72,7 @@ class FreeSpace:
         grid's frame [m]; ``hits[k]`` says whether beam ``k`` ended on something (a return
         found to move should be given as ``False``: its beam still crossed free space)."""
         e = np.asarray(ends, dtype=np.float64).reshape(-1, 2)
-        h = np.asarray(hits, dtype=bool).ravel()
+        h: NDArray[np.bool_] = np.asarray(hits, dtype=bool).ravel()
         s = np.asarray(sensor, dtype=np.float64)
         d = e - s
         length = np.hypot(d[:, 0], d[:, 1])

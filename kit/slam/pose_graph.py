@@ -405,7 +405,8 @@ class PoseGraph:
         """An independent graph with the same nodes, edges, kernels and fixed nodes."""
         graph = PoseGraph(ids=list(self.ids), fixed=set(self.fixed))
         graph._poses = [p.copy() for p in self._poses]
-        graph._edges = [tuple(a.copy() for a in block) for block in self._edges]
+        graph._edges = [(i.copy(), j.copy(), z.copy(), info.copy(), kernel.copy(), delta.copy())
+                        for i, j, z, info, kernel, delta in self._edges]
         return graph
 
     def edge_chi2(self, poses: FloatArray | None = None) -> FloatArray:
@@ -811,7 +812,7 @@ def _assemble(vertices: dict[int, list[float]],
         raise PoseGraphError(f"{name}: no vertices or edges")
     index = {node: k for k, node in enumerate(ids)}
     missing = [node for node in ids if node not in vertices]
-    poses = np.zeros((len(ids), 3))
+    poses: FloatArray = np.zeros((len(ids), 3))
     for node, v in vertices.items():
         poses[index[node]] = v
     if missing:

@@ -259,7 +259,9 @@ def icp(source: ArrayLike, reference: PointCloudReference | ArrayLike, initial: 
         np.asarray(prior_information, dtype=np.float64)
     if ref.tree is None or len(src) < 3:
         return MatchResult(x0, _fallback_covariance(omega), False)
-    x, H, r = x0, np.zeros((3, 3)), np.zeros(0)
+    x: FloatArray = x0
+    H: FloatArray = np.zeros((3, 3))
+    r: FloatArray = np.zeros(0)
     converged, it = False, 0
     for it in range(1, cfg.max_iterations + 1):  # noqa: B007 - reported
         new, H, r = icp_iteration(src, ref, x, prior, omega)
