@@ -37,11 +37,15 @@ WALK_PERIOD = 0.1
 ALCOVE_REACH = 10.0
 _T27 = 134217729.0          # 2**27 + 1, Veltkamp's splitting constant
 _DBL_MIN = 2.2250738585072014e-308
+_NAN = math.hypot(math.nan, 0.0)
+"""The NaN CPython's hypot returns: its sign bit is set on 3.10 (``Py_NAN`` was
+``Py_HUGE_VAL * 0.``) and clear from 3.11, so it is taken from the interpreter running (numba
+keeps it as a constant; its cache is kept per Python version)."""
 
 
 @njit(cache=True)
 def hypot(x: float, y: float) -> float:  # pragma: no cover - compiled
-    """``math.hypot(x, y)`` as CPython 3.10–3.11 computes it (``vector_norm`` in
+    """``math.hypot(x, y)`` as CPython 3.10–3.13 computes it (``vector_norm`` in
     ``Modules/mathmodule.c``): scaled by a power of two, squares split exactly (Veltkamp),
     compensated sums and one differential correction of the square root. A test compares it
     with ``math.hypot`` on millions of random pairs."""
@@ -54,7 +58,7 @@ def hypot(x: float, y: float) -> float:  # pragma: no cover - compiled
     if math.isinf(mx):
         return mx
     if math.isnan(x) or math.isnan(y):
-        return math.nan
+        return _NAN
     if mx == 0.0:
         return mx
     unscale = 1.0
