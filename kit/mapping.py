@@ -359,8 +359,7 @@ class OccupancyGridMap:
                 occupied_thresh: float = maps.OCCUPIED_THRESH) -> NDArray[np.int8]:
         """map_server's trinary values: 100 where ``p > occupied_thresh``, 0 where
         ``p < free_thresh``, −1 (unknown) between."""
-        if not 0 <= free_thresh <= occupied_thresh <= 1:
-            raise ValueError("thresholds must satisfy 0 <= free_thresh <= occupied_thresh <= 1")
+        maps.check_thresholds(free_thresh, occupied_thresh)
         out = np.full(self.shape, -1, dtype=np.int8)
         step = 256  # rows at a time: no float copy of a whole large map (CSAIL's: 145 MB)
         for r in range(0, self.shape[0], step):

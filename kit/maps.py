@@ -23,13 +23,20 @@ from numpy.typing import NDArray
 
 from kit import geometry, msgs
 
-__all__ = ["FREE_THRESH", "OCCUPIED_THRESH", "MapError", "read_map", "read_pgm", "saved_values",
-           "write_map"]
+__all__ = ["FREE_THRESH", "OCCUPIED_THRESH", "MapError", "check_thresholds", "read_map",
+           "read_pgm", "saved_values", "write_map"]
 
 FREE_THRESH = 0.196
 """map_server's default ``free_thresh``: a cell less likely occupied than this is free."""
 OCCUPIED_THRESH = 0.65
 """map_server's default ``occupied_thresh``: a cell more likely occupied than this is a wall."""
+
+
+def check_thresholds(free_thresh: float, occupied_thresh: float) -> None:
+    """``ValueError`` unless ``0 ≤ free_thresh ≤ occupied_thresh ≤ 1``."""
+    if not 0.0 <= free_thresh <= occupied_thresh <= 1.0:
+        raise ValueError("thresholds must satisfy 0 <= free_thresh <= occupied_thresh <= 1; got "
+                         f"free_thresh={free_thresh}, occupied_thresh={occupied_thresh}")
 
 
 def saved_values(free_thresh: float = FREE_THRESH,
@@ -42,11 +49,8 @@ def saved_values(free_thresh: float = FREE_THRESH,
     >>> saved_values(), saved_values(0.25, 0.65)
     ((20, 65), (25, 65))
     """
-    if not 0.0 <= free_thresh <= occupied_thresh <= 1.0:
-        raise ValueError("thresholds must satisfy 0 <= free_thresh <= occupied_thresh <= 1; got "
-                         f"free_thresh={free_thresh}, occupied_thresh={occupied_thresh}")
-    free, occupied = (int(np.rint(100.0 * t)) for t in (free_thresh, occupied_thresh))
-    return free, occupied
+    check_thresholds(free_thresh, occupied_thresh)
+    return int(np.rint(100.0 * free_thresh)), int(np.rint(100.0 * occupied_thresh))
 
 
 class MapError(ValueError):
