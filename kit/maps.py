@@ -4,12 +4,21 @@
 ``write_map(grid, "map.yaml")`` writes what Nav2's ``map_saver`` writes, so maps move between
 the kit and Nav2/RViz both ways.
 
-map_server's trinary rule, followed exactly: a pixel ``v`` (of maxval 255, channels averaged)
-has occupancy ``p = (255 − v) / 255`` (``v / 255`` with ``negate: 1``); ``p > occupied_thresh``
-is 100, ``p < free_thresh`` is 0, anything else −1 (unknown). The image's bottom row is the
-grid's row 0. Mind the thresholds a file carries: with ``free_thresh: 0.25`` the grey 205 that
-map_saver writes for unknown cells (p = 0.196) reads back as *free* — map_server does the same.
-``scale`` mode keeps ``p`` as 0…100 between the thresholds; ``raw`` takes the pixel value.
+map_server's rule, followed exactly (Nav2's ``map_io``, Jazzy and newer):
+
+- the image is made grey as GraphicsMagick does for map_server: a colour pixel's grey is its
+  Rec. 601 luma ``0.299 R + 0.587 G + 0.114 B``; a 16-bit image keeps its top byte;
+- in ``trinary`` and ``scale`` mode a grey ``v`` has occupancy ``p = 1 − v/255`` (``v/255``
+  with ``negate: 1``), in single precision; ``p >= occupied_thresh`` is 100,
+  ``p <= free_thresh`` is 0, anything else −1 (unknown); ``scale`` mode maps ``p`` between
+  the thresholds to 0…100 instead; a pixel that is not fully opaque is −1;
+- ``raw`` mode takes the grey itself as the cell, −1 where it is above 100.
+
+The image's bottom row is the grid's row 0. Mind the thresholds a file carries: with
+``free_thresh: 0.25`` the grey 205 that map_saver writes for unknown cells (p = 0.196) reads
+back as *free*: map_server does the same. (Humble's map_server differs in three corner
+cases: it averages a colour pixel's channels, averages the alpha in as a fourth channel in
+trinary mode, and asks ``p > occupied_thresh`` and ``p < free_thresh``.)
 """
 
 from __future__ import annotations
@@ -23,8 +32,8 @@ from numpy.typing import NDArray
 
 from kit import geometry, msgs
 
-__all__ = ["FREE_THRESH", "OCCUPIED_THRESH", "MapError", "check_thresholds", "read_map",
-           "read_pgm", "saved_values", "write_map"]
+__all__ = ["FREE_THRESH", "OCCUPIED_THRESH", "MapError", "cells_of", "check_thresholds",
+           "read_image", "read_map", "read_pgm", "saved_values", "write_map"]
 
 FREE_THRESH = 0.196
 """map_server's default ``free_thresh``: a cell less likely occupied than this is free."""
@@ -81,7 +90,9 @@ def _pgm_tokens(data: bytes, count: int, path: Path) -> tuple[list[int], int]:
 
 
 def read_pgm(path: Path) -> NDArray[np.uint8]:
-    """A binary (P5) or ASCII (P2) PGM image as a (rows, cols) array, top row first."""
+    """A binary (P5) or ASCII (P2) PGM image as a (rows, cols) array of 8-bit greys, top row
+    first. A 16-bit image (maxval 65535) keeps each pixel's top byte, as GraphicsMagick gives
+    map_server; another maxval is scaled to 0…255 and rounded."""
     data = Path(path).read_bytes()
     magic = data[:2]
     if magic not in (b"P5", b"P2"):
@@ -91,6 +102,7 @@ def read_pgm(path: Path) -> NDArray[np.uint8]:
         raise MapError(f"{path}: the image has no pixels ({width} x {height})")
     if not 0 < maxval < 65536:
         raise MapError(f"{path}: bad PGM maxval {maxval}")
+    pixels: NDArray[Any]
     if magic == b"P5":
         dtype = np.dtype(">u2") if maxval > 255 else np.dtype(np.uint8)
         need = width * height * dtype.itemsize
@@ -103,23 +115,85 @@ def read_pgm(path: Path) -> NDArray[np.uint8]:
         if pixels.size < width * height:
             raise MapError(f"{path}: truncated: {pixels.size} of {width * height} pixels")
         pixels = pixels[: width * height]
-    scaled = np.asarray(pixels, dtype=np.float64) * (255.0 / maxval)
-    return np.rint(scaled).astype(np.uint8).reshape(height, width)
+    if (pixels > maxval).any():
+        raise MapError(f"{path}: a pixel is above the header's maxval {maxval}")
+    if maxval == 65535:
+        grey = pixels // 257
+    else:
+        grey = np.rint(np.asarray(pixels, dtype=np.float64) * (255.0 / maxval))
+    return grey.astype(np.uint8).reshape(height, width)
 
 
-def _read_image(path: Path) -> NDArray[np.uint8]:
+def _luma(rgb: NDArray[Any]) -> NDArray[np.uint8]:
+    """GraphicsMagick's grey of 8-bit RGB pixels (its 16-bit build, as Debian and Ubuntu ship
+    it): Rec. 601 luma of the 16-bit channels, rounded, then the top byte."""
+    r, g, b = (rgb[..., i].astype(np.float64) * 257.0 for i in range(3))
+    q = np.floor(0.299 * r + 0.587 * g + 0.114 * b + 0.5)
+    return (q // 257).astype(np.uint8)
+
+
+def read_image(path: Path) -> tuple[NDArray[np.uint8], NDArray[np.uint8] | None]:
+    """An image's 8-bit greys as map_server sees them and its alpha (``None`` if it has none),
+    both (rows, cols), top row first: PGM, PNG, BMP or any image Pillow reads."""
     if path.suffix.lower() in (".pgm", ".pnm"):
-        return read_pgm(path)
+        return read_pgm(path), None
     from PIL import Image, UnidentifiedImageError  # Pillow comes with matplotlib
 
     try:
-        with Image.open(path) as img:
-            array = np.asarray(img.convert("RGB") if img.mode not in ("L", "RGB") else img)
-    except (UnidentifiedImageError, OSError) as exc:
+        with Image.open(path) as opened:
+            opened.load()
+            img: Image.Image = opened
+            if img.mode in ("I;16", "I;16L", "I;16B", "I"):  # 16-bit grey: its top byte
+                wide = np.asarray(img).astype(np.int64)
+                return (np.clip(wide, 0, 65535) // 257).astype(np.uint8), None
+            if img.mode not in ("L", "LA", "RGB", "RGBA") or "transparency" in img.info:
+                # palette, 1-bit, CMYK, premultiplied...: to grey or colour, with an alpha
+                # where the image has one (a transparent colour or palette entry included)
+                has_alpha = "A" in img.mode or "transparency" in img.info
+                is_grey = img.mode in ("1", "L", "LA", "La")
+                img = img.convert(("LA" if has_alpha else "L") if is_grey else
+                                  ("RGBA" if has_alpha else "RGB"))
+            array = np.asarray(img)
+    except (UnidentifiedImageError, OSError, ValueError) as exc:
         raise MapError(f"{path}: unreadable image ({exc})") from None
-    if array.ndim == 3:  # map_server averages the colour channels
-        array = np.rint(array[..., :3].astype(np.float64).mean(axis=2)).astype(np.uint8)
-    return array.astype(np.uint8)
+    if array.ndim == 2:
+        return array.astype(np.uint8), None
+    if array.shape[2] == 2:
+        return array[..., 0].astype(np.uint8), array[..., 1].astype(np.uint8)
+    grey = _luma(array)
+    return grey, (array[..., 3].astype(np.uint8) if array.shape[2] == 4 else None)
+
+
+def cells_of(grey: NDArray[np.uint8], alpha: NDArray[np.uint8] | None, mode: str = "trinary",
+             negate: bool = False, free_thresh: float = FREE_THRESH,
+             occupied_thresh: float = OCCUPIED_THRESH) -> NDArray[np.int8]:
+    """map_server's cells (−1, 0…100) for an image's greys and alpha, top row first.
+
+    The arithmetic is map_server's, in single precision: ``p = 1 − v/255``; a cell is 100 if
+    ``p >= occupied_thresh``, else 0 if ``p <= free_thresh``; in ``scale`` mode a ``p``
+    strictly between is ``round(100 (p − free) / (occupied − free))``, halves away from zero.
+    """
+    check_thresholds(free_thresh, occupied_thresh)
+    if mode == "raw":
+        return np.where(grey <= 100, grey, -1).astype(np.int8)
+    if mode not in ("trinary", "scale"):
+        raise ValueError(f"unknown map mode {mode!r}: trinary, scale or raw")
+    p = grey.astype(np.float32) / np.float32(255.0)
+    if not negate:
+        p = np.float32(1.0) - p
+    free, occupied = np.float32(free_thresh), np.float32(occupied_thresh)
+    cells = np.full(p.shape, -1, dtype=np.int8)
+    cells[p >= occupied] = 100
+    cells[p <= free] = 0
+    if mode == "scale":
+        between = (p > free) & (p < occupied)
+        scaled = (p[between] - free) / np.float32(occupied_thresh - free_thresh) \
+            * np.float32(100.0)
+        whole = np.floor(scaled)
+        cells[between] = (whole + (scaled - whole >= 0.5)).astype(np.int8)
+    if alpha is not None:
+        cells[alpha < 255] = -1
+    return cells
 
 
 def _load_yaml(path: Path) -> dict[str, Any]:
@@ -174,18 +248,9 @@ def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
                        f"occupied_thresh <= 1; got {free}, {occupied}")
     if mode not in ("trinary", "scale", "raw"):
         raise MapError(f"{yaml_path}: unknown mode {mode!r}")
-    pixels = _read_image(image_path).astype(np.float64)
-    if mode == "raw":
-        cells = pixels.astype(np.int64)
-    else:
-        p = pixels / 255.0 if negate else (255.0 - pixels) / 255.0
-        cells = np.full(p.shape, -1, dtype=np.int64)
-        cells[p > occupied] = 100
-        cells[p < free] = 0
-        if mode == "scale":
-            between = (p >= free) & (p <= occupied)
-            cells[between] = np.rint(99 * (p[between] - free) / (occupied - free)).astype(int)
-    grid = np.flipud(cells).astype(np.int8)
+    grey, alpha = read_image(image_path)
+    cells = cells_of(grey, alpha, mode, bool(negate), free, occupied)
+    grid = np.flipud(cells)
     height, width = grid.shape
     q = geometry.yaw_to_quaternion(origin[2])
     info = msgs.MapMetaData(

@@ -1,3 +1,5 @@
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -131,3 +133,66 @@ def test_a_bad_resolution_and_a_bad_origin_get_their_own_messages(tmp_path, line
     (tmp_path / "r.yaml").write_text(f"image: m.pgm\n{line}\n")
     with pytest.raises(maps.MapError, match=message):
         maps.read_map(tmp_path / "r.yaml")
+
+
+MAP_IMAGES = Path(__file__).parent / "data" / "map_images"
+"""Images of every kind a map can come as, and what Nav2's map_server makes of each
+(``reference.npz``: GraphicsMagick and Eigen computed it, see that folder's README)."""
+
+
+def _reference() -> dict[str, np.ndarray]:
+    with np.load(MAP_IMAGES / "reference.npz") as npz:
+        return {key: npz[key] for key in npz.files}
+
+
+@pytest.mark.parametrize("image", sorted(p.name for p in MAP_IMAGES.iterdir()
+                                         if p.suffix in (".pgm", ".png", ".bmp")))
+def test_every_kind_of_image_reads_as_map_server_reads_it(tmp_path, image):
+    """Each image's greys and alpha are GraphicsMagick's (colour by Rec. 601 luma, 16-bit by
+    its top byte, a palette's or grey's transparent entry as alpha), and its cells in every
+    mode, for both values of ``negate`` and six threshold pairs, are map_server's, cell for
+    cell, through ``read_map`` as a user calls it."""
+    reference = _reference()
+    grey, alpha = maps.read_image(MAP_IMAGES / image)
+    np.testing.assert_array_equal(grey, reference[f"{image}|grey"])
+    if f"{image}|alpha" in reference:
+        assert alpha is not None, "map_server sees an alpha channel"
+        np.testing.assert_array_equal(alpha, reference[f"{image}|alpha"])
+    else:
+        assert alpha is None
+    cases = [key for key in reference if key.startswith(f"{image}|")
+             and key.split("|")[1] in ("trinary", "scale", "raw")]
+    assert len(cases) == 25
+    for key in cases:
+        _, mode, *rest = key.split("|")
+        negate, free, occupied = (rest[0], rest[1], rest[2]) if rest else ("0", "0.196", "0.65")
+        (tmp_path / "m.yaml").write_text(
+            f"image: {MAP_IMAGES / image}\nmode: {mode}\nresolution: 0.05\norigin: [0, 0, 0]\n"
+            f"negate: {negate}\nfree_thresh: {free}\noccupied_thresh: {occupied}\n")
+        grid = maps.read_map(tmp_path / "m.yaml")
+        cells = np.flipud(grid.data.reshape(grid.info.height, grid.info.width))
+        np.testing.assert_array_equal(cells, reference[key], err_msg=key)
+
+
+def test_raw_mode_keeps_0_to_100_and_makes_the_rest_unknown():
+    """Nav2's raw mode: a grey 0…100 is the cell, anything above is −1 (never a wrapped int8)."""
+    grey = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    cells = maps.cells_of(grey, None, "raw")
+    assert cells.dtype == np.int8
+    np.testing.assert_array_equal(cells.ravel()[:101], np.arange(101))
+    assert (cells.ravel()[101:] == -1).all()
+
+
+def test_a_pgm_pixel_above_its_maxval_is_refused(tmp_path):
+    (tmp_path / "m.pgm").write_bytes(b"P5\n2 1\n100\n" + bytes([50, 200]))
+    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with pytest.raises(maps.MapError, match=r"m\.pgm: a pixel is above the header's maxval 100"):
+        maps.read_map(tmp_path / "m.yaml")
+
+
+def test_a_damaged_png_names_the_file(tmp_path):
+    good = (MAP_IMAGES / "colour.png").read_bytes()
+    (tmp_path / "m.png").write_bytes(good[: len(good) // 2])
+    (tmp_path / "m.yaml").write_text("image: m.png\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with pytest.raises(maps.MapError, match=r"m\.png: unreadable image"):
+        maps.read_map(tmp_path / "m.yaml")
