@@ -261,9 +261,18 @@ def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
 
 def write_map(grid: msgs.OccupancyGrid, path: str | Path, free_thresh: float = FREE_THRESH,
               occupied_thresh: float = OCCUPIED_THRESH) -> Path:
-    """Write ``path`` (YAML) and a PGM beside it as map_saver does in trinary mode: free 254,
-    occupied 0, unknown 205, the cells classed by the thresholds given (:func:`saved_values`),
-    which the YAML then carries. Returns the PGM's path."""
+    """Write ``path`` (YAML) and a PGM beside it as Nav2's map_saver does in trinary mode: the
+    cells classed by the thresholds given (:func:`saved_values`) and written free 254,
+    occupied 0, unknown 205. Returns the PGM's path.
+
+    The YAML carries map_server's default thresholds (0.65 and 0.196), not the ones given,
+    as map_saver's does since Nav2 PR #5278: they are what tells the three greys apart when
+    the map is read back. (Before, a map saved with ``free_thresh: 0.25`` read its unknown
+    205 back as free.) Like map_saver, ``free_thresh`` must be below ``occupied_thresh``.
+    """
+    if not free_thresh < occupied_thresh:
+        raise ValueError(f"free_thresh must be below occupied_thresh, as map_saver asks; got "
+                         f"free_thresh={free_thresh}, occupied_thresh={occupied_thresh}")
     free, occupied = saved_values(free_thresh, occupied_thresh)
     yaml_path = Path(path)
     pgm_path = yaml_path.with_suffix(".pgm")
@@ -281,5 +290,5 @@ def write_map(grid: msgs.OccupancyGrid, path: str | Path, free_thresh: float = F
     yaml_path.write_text(
         f"image: {pgm_path.name}\nmode: trinary\nresolution: {info.resolution:.6f}\n"
         f"origin: [{o.position.x:.6f}, {o.position.y:.6f}, {yaw:.6f}]\nnegate: 0\n"
-        f"occupied_thresh: {occupied_thresh}\nfree_thresh: {free_thresh}\n", encoding="utf-8")
+        f"occupied_thresh: {OCCUPIED_THRESH}\nfree_thresh: {FREE_THRESH}\n", encoding="utf-8")
     return pgm_path

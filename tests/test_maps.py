@@ -74,11 +74,12 @@ def _map_saver_pixel(cell: int, free_thresh: float, occupied_thresh: float) -> i
 
 @pytest.mark.parametrize("free_thresh, occupied_thresh", [
     (maps.FREE_THRESH, maps.OCCUPIED_THRESH), (0.25, 0.65), (0.3, 0.7), (0.125, 0.625),
-    (0.5, 0.5), (0.0, 1.0)])
-def test_write_map_classes_every_cell_value_by_the_thresholds_it_writes(
+    (0.5, 0.51), (0.0, 1.0)])
+def test_write_map_classes_every_cell_value_by_the_thresholds_it_is_given(
         tmp_path, free_thresh, occupied_thresh):
     """Every int8 value, as map_saver writes it with those thresholds (0.125 and 0.625: the
-    halves round to even, as C's rint does); the YAML carries the same thresholds."""
+    halves round to even, as C's rint does); the YAML carries map_saver's fixed thresholds,
+    so the map reads back as the three greys say, whatever thresholds wrote it."""
     data = np.arange(-128, 128, dtype=np.int8)
     info = msgs.MapMetaData(resolution=0.1, width=16, height=16)
     pgm = maps.write_map(msgs.OccupancyGrid(msgs.Header(frame_id="map"), info, data),
@@ -87,16 +88,22 @@ def test_write_map_classes_every_cell_value_by_the_thresholds_it_writes(
     expected = [_map_saver_pixel(int(v), free_thresh, occupied_thresh) for v in data]
     assert pixels.tolist() == expected
     yaml = (tmp_path / "m.yaml").read_text()
-    assert f"occupied_thresh: {occupied_thresh}\n" in yaml
-    assert f"free_thresh: {free_thresh}\n" in yaml
+    assert "occupied_thresh: 0.65\n" in yaml and "free_thresh: 0.196\n" in yaml
+    back = maps.read_map(tmp_path / "m.yaml").data
+    as_written = {254: 0, 0: 100, 205: -1}
+    assert back.tolist() == [as_written[p] for p in expected]
 
 
 def test_write_map_refuses_thresholds_out_of_order(tmp_path):
     grid = msgs.OccupancyGrid(msgs.Header(frame_id="map"),
                               msgs.MapMetaData(resolution=0.1, width=2, height=1),
                               np.zeros(2, dtype=np.int8))
-    with pytest.raises(ValueError, match="free_thresh <= occupied_thresh"):
+    with pytest.raises(ValueError, match="free_thresh must be below occupied_thresh"):
         maps.write_map(grid, tmp_path / "m.yaml", 0.7, 0.3)
+    with pytest.raises(ValueError, match="free_thresh must be below occupied_thresh"):
+        maps.write_map(grid, tmp_path / "m.yaml", 0.5, 0.5)
+    with pytest.raises(ValueError, match=r"0 <= free_thresh <= occupied_thresh <= 1"):
+        maps.write_map(grid, tmp_path / "m.yaml", 0.2, 1.5)
     assert not (tmp_path / "m.pgm").exists() and not (tmp_path / "m.yaml").exists()
 
 
