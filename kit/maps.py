@@ -211,28 +211,38 @@ def _load_yaml(path: Path) -> dict[str, Any]:
     return data
 
 
+_REQUIRED = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh")
+"""The keys map_server refuses a map YAML without."""
+
+
 def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
-    """Load a map_server map (YAML + PGM/PNG/BMP) as an ``OccupancyGrid``.
+    """Load a map_server map (YAML + PGM/PNG/BMP) as an ``OccupancyGrid``: the one Nav2's
+    map_server publishes for the file, or a ``MapError`` where map_server refuses it.
 
     Raises
     ------
     MapError
         Missing keys, a missing or truncated image, thresholds out of range.
     """
-    yaml_path = Path(path)
+    yaml_path = Path(path).expanduser()
     meta = _load_yaml(yaml_path)
-    for key in ("image", "resolution", "origin"):
-        if key not in meta:
-            raise MapError(f"{yaml_path}: missing '{key}'")
+    missing = [key for key in _REQUIRED if key not in meta]
+    if missing:
+        raise MapError(f"{yaml_path}: missing {', '.join(repr(k) for k in missing)} (map_server "
+                       f"needs {', '.join(_REQUIRED)}; mode is optional, trinary by default)")
+    if not str(meta["image"]):
+        raise MapError(f"{yaml_path}: 'image' is empty")
     image_path = yaml_path.parent / str(meta["image"])
     if not image_path.is_file():
         raise MapError(f"{yaml_path}: its image {image_path} does not exist")
     try:
         resolution = float(meta["resolution"])
         origin = [float(v) for v in meta["origin"]]
-        occupied = float(meta.get("occupied_thresh", OCCUPIED_THRESH))
-        free = float(meta.get("free_thresh", FREE_THRESH))
-        negate = int(meta.get("negate", 0))
+        occupied = float(meta["occupied_thresh"])
+        free = float(meta["free_thresh"])
+        if not isinstance(meta["negate"], int):   # an integer or true/false, as map_server
+            raise TypeError(meta["negate"])
+        negate = bool(meta["negate"])
     except (TypeError, ValueError):
         raise MapError(f"{yaml_path}: resolution, occupied_thresh and free_thresh must be "
                        f"numbers, origin a list [x, y, yaw], negate 0 or 1") from None
@@ -249,7 +259,7 @@ def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
     if mode not in ("trinary", "scale", "raw"):
         raise MapError(f"{yaml_path}: unknown mode {mode!r}")
     grey, alpha = read_image(image_path)
-    cells = cells_of(grey, alpha, mode, bool(negate), free, occupied)
+    cells = cells_of(grey, alpha, mode, negate, free, occupied)
     grid = np.flipud(cells)
     height, width = grid.shape
     q = geometry.yaw_to_quaternion(origin[2])

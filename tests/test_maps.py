@@ -5,6 +5,10 @@ import pytest
 
 from kit import geometry, maps, msgs
 
+KEYS = "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
+"""The keys map_server needs besides image, resolution and origin."""
+PLAIN = "resolution: 0.1\norigin: [0, 0, 0]\n" + KEYS
+
 NAV2_TESTMAP_ROWS = [  # nav2_map_server/test/test_constants.cpp, bottom row first
     [0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
     [100, 100, 100, 100, 0, 0, 100, 100, 100, 0],
@@ -109,20 +113,20 @@ def test_write_map_refuses_thresholds_out_of_order(tmp_path):
 
 def test_truncated_and_malformed_maps_name_the_file(tmp_path):
     (tmp_path / "m.pgm").write_bytes(b"P5\n4 4\n255\n" + bytes(10))
-    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    (tmp_path / "m.yaml").write_text("image: m.pgm\n" + PLAIN)
     with pytest.raises(maps.MapError, match=r"m\.pgm: truncated: 10 bytes"):
         maps.read_map(tmp_path / "m.yaml")
-    (tmp_path / "n.yaml").write_text("image: m.pgm\norigin: [0, 0, 0]\n")
+    (tmp_path / "n.yaml").write_text("image: m.pgm\norigin: [0, 0, 0]\n" + KEYS)
     with pytest.raises(maps.MapError, match=r"n\.yaml: missing 'resolution'"):
         maps.read_map(tmp_path / "n.yaml")
-    (tmp_path / "o.yaml").write_text("image: nothere.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    (tmp_path / "o.yaml").write_text("image: nothere.pgm\n" + PLAIN)
     with pytest.raises(maps.MapError, match="does not exist"):
         maps.read_map(tmp_path / "o.yaml")
     (tmp_path / "p.yaml").write_text("image: [unclosed\n")
     with pytest.raises(maps.MapError, match="not valid YAML"):
         maps.read_map(tmp_path / "p.yaml")
     (tmp_path / "q.pgm").write_bytes(b"GIF89a")
-    (tmp_path / "q.yaml").write_text("image: q.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    (tmp_path / "q.yaml").write_text("image: q.pgm\n" + PLAIN)
     with pytest.raises(maps.MapError, match="not a PGM"):
         maps.read_map(tmp_path / "q.yaml")
 
@@ -137,7 +141,7 @@ def test_truncated_and_malformed_maps_name_the_file(tmp_path):
 ])
 def test_a_bad_resolution_and_a_bad_origin_get_their_own_messages(tmp_path, line, message):
     (tmp_path / "m.pgm").write_bytes(b"P5\n2 2\n255\n" + bytes(4))
-    (tmp_path / "r.yaml").write_text(f"image: m.pgm\n{line}\n")
+    (tmp_path / "r.yaml").write_text(f"image: m.pgm\n{line}\n" + KEYS)
     with pytest.raises(maps.MapError, match=message):
         maps.read_map(tmp_path / "r.yaml")
 
@@ -192,7 +196,7 @@ def test_raw_mode_keeps_0_to_100_and_makes_the_rest_unknown():
 
 def test_a_pgm_pixel_above_its_maxval_is_refused(tmp_path):
     (tmp_path / "m.pgm").write_bytes(b"P5\n2 1\n100\n" + bytes([50, 200]))
-    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    (tmp_path / "m.yaml").write_text("image: m.pgm\n" + PLAIN)
     with pytest.raises(maps.MapError, match=r"m\.pgm: a pixel is above the header's maxval 100"):
         maps.read_map(tmp_path / "m.yaml")
 
@@ -200,6 +204,6 @@ def test_a_pgm_pixel_above_its_maxval_is_refused(tmp_path):
 def test_a_damaged_png_names_the_file(tmp_path):
     good = (MAP_IMAGES / "colour.png").read_bytes()
     (tmp_path / "m.png").write_bytes(good[: len(good) // 2])
-    (tmp_path / "m.yaml").write_text("image: m.png\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    (tmp_path / "m.yaml").write_text("image: m.png\n" + PLAIN)
     with pytest.raises(maps.MapError, match=r"m\.png: unreadable image"):
         maps.read_map(tmp_path / "m.yaml")
