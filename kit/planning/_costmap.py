@@ -203,13 +203,18 @@ def footprint_radii(points: ArrayLike) -> tuple[float, float]:
 def static_layer(grid: msgs.OccupancyGrid, *, track_unknown_space: bool = False,
                  lethal_cost_threshold: int = 100, unknown_cost_value: int = 255,
                  trinary_costmap: bool = True,
-                 inscribed_obstacle_cost_value: int = 99) -> CostArray:
+                 inscribed_obstacle_cost_value: int | None = 99) -> CostArray:
     """Nav2's ``StaticLayer``: occupancy values (0–100, −1 read as 255) to costs.
 
     Value ``unknown_cost_value`` → 255 when ``track_unknown_space`` else 0; the value
     ``inscribed_obstacle_cost_value`` → 253; ``≥ lethal_cost_threshold`` → 254; anything else
     → 0 with ``trinary_costmap``, or ``254 · value / lethal_cost_threshold`` (truncated).
     Returns ``(height, width)`` costs, row 0 at the map's origin.
+
+    The two values are bytes in Nav2, as the map's cells are: ``unknown_cost_value: -1`` (ROS
+    1's default, still in many files) is 255, the same as Nav2's default. The inscribed rule
+    is Lyrical's (Nav2 PR #5781: a costmap republished as a map keeps its 253 as 99); Jazzy
+    and Humble have no such rule, which ``inscribed_obstacle_cost_value=None`` gives.
     """
     info = grid.info
     value = grid.data.astype(np.uint8).reshape(info.height, info.width).astype(np.int64)
@@ -220,8 +225,10 @@ def static_layer(grid: msgs.OccupancyGrid, *, track_unknown_space: bool = False,
     else:
         cost = (value / max(lethal, 1) * LETHAL_OBSTACLE).astype(np.int64)
     cost[value >= lethal] = LETHAL_OBSTACLE
-    cost[value == inscribed_obstacle_cost_value] = INSCRIBED_INFLATED_OBSTACLE
-    cost[value == unknown_cost_value] = NO_INFORMATION if track_unknown_space else FREE_SPACE
+    if inscribed_obstacle_cost_value is not None:
+        cost[value == int(inscribed_obstacle_cost_value) % 256] = INSCRIBED_INFLATED_OBSTACLE
+    unknown = int(unknown_cost_value) % 256                 # rclcpp's cast to unsigned char
+    cost[value == unknown] = NO_INFORMATION if track_unknown_space else FREE_SPACE
     return cost.astype(np.uint8)
 
 

@@ -143,6 +143,8 @@ class CostmapParams:
     track_unknown_space: bool = False
     lethal_cost_threshold: int = 100
     unknown_cost_value: int = 255
+    inscribed_obstacle_cost_value: int = 99
+    """Lyrical's: a map value read as the inscribed cost 253 (Jazzy has no such value)."""
     trinary_costmap: bool = True
     use_maximum: bool = False
     rolling_window: bool = False
@@ -306,8 +308,8 @@ def read_costmap(s: Section) -> CostmapParams:
     scalars: dict[str, Any] = {}
     for key in ("resolution", "width", "height", "origin_x", "origin_y", "global_frame",
                 "robot_radius", "footprint_padding", "track_unknown_space",
-                "lethal_cost_threshold", "unknown_cost_value", "trinary_costmap",
-                "use_maximum", "rolling_window", "update_frequency"):
+                "lethal_cost_threshold", "unknown_cost_value", "inscribed_obstacle_cost_value",
+                "trinary_costmap", "use_maximum", "rolling_window", "update_frequency"):
         scalars[key] = s.get(key, getattr(d, key))
     if not (math.isfinite(scalars["resolution"]) and scalars["resolution"] > 0):
         s.report.errors.append(f"{s.key('resolution').replace(':', '.')} must be a positive "
@@ -535,7 +537,8 @@ class LayeredCostmap:
         self.static = static_layer(grid, track_unknown_space=p.track_unknown_space,
                                    lethal_cost_threshold=p.lethal_cost_threshold,
                                    unknown_cost_value=p.unknown_cost_value,
-                                   trinary_costmap=p.trinary_costmap)
+                                   trinary_costmap=p.trinary_costmap,
+                                   inscribed_obstacle_cost_value=p.inscribed_obstacle_cost_value)
         self.static_origin = origin
         self.static_resolution = resolution
         self._static_distance = None

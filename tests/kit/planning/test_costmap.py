@@ -199,6 +199,20 @@ def test_static_layer_interprets_values_as_nav2s_static_layer():
     assert static_layer(grid, trinary_costmap=False,
                         lethal_cost_threshold=60).tolist() == [[0, 211, 253, 254, 0]]
     assert static_layer(grid, trinary_costmap=False).tolist() == [[0, 127, 253, 254, 0]]
+    # Jazzy and Humble: no inscribed value, 99 is a value like any other
+    jazzy = static_layer(grid, inscribed_obstacle_cost_value=None, trinary_costmap=False)
+    assert jazzy.tolist() == [[0, 127, 251, 254, 0]]
+    assert static_layer(grid, inscribed_obstacle_cost_value=None).tolist() == [[0, 0, 0, 254, 0]]
+
+
+@pytest.mark.parametrize("unknown", [-1, 255])
+def test_unknown_cost_value_is_a_byte_as_in_nav2(unknown):
+    """Nav2 keeps ``unknown_cost_value`` in an unsigned char, so ROS 1's -1 is its default 255:
+    unknown cells stay unknown (or free), never lethal."""
+    grid = grid_of([[0, 100, -1]])
+    assert static_layer(grid, unknown_cost_value=unknown,
+                        track_unknown_space=True).tolist() == [[0, 254, 255]]
+    assert static_layer(grid, unknown_cost_value=unknown).tolist() == [[0, 254, 0]]
 
 
 @pytest.mark.dataset

@@ -246,6 +246,22 @@ def test_defaults_and_footprint_strings_follow_nav2(tmp_path):
     np.testing.assert_allclose(p.robot_footprint()[0], [0.21, 0.11], atol=1e-7)
 
 
+def test_a_parameter_file_s_unknown_and_inscribed_values_reach_the_static_layer():
+    """``unknown_cost_value: -1`` (ROS 1's, in many files) is Nav2's byte 255: unknown cells
+    stay unknown; ``inscribed_obstacle_cost_value`` (Lyrical's key) names the value read as
+    253."""
+    info = msgs.MapMetaData(resolution=0.1, width=4, height=1)
+    grid = msgs.OccupancyGrid(msgs.Header(frame_id="map"), info,
+                              np.array([0, 99, 100, -1], dtype=np.int8))
+    base = {"resolution": 0.1, "track_unknown_space": True, "plugins": ["static_layer"],
+            "static_layer": {"plugin": "nav2_costmap_2d::StaticLayer"}}
+    p = load_costmap_params({**base, "unknown_cost_value": -1})
+    assert costmap_from_map(grid, p).costs.tolist() == [[0, 253, 254, 255]]
+    p = load_costmap_params({**base, "inscribed_obstacle_cost_value": 50})
+    assert p.inscribed_obstacle_cost_value == 50
+    assert costmap_from_map(grid, p).costs.tolist() == [[0, 0, 254, 255]]
+
+
 @pytest.mark.parametrize(("text", "message"), [
     ("other:\n  ros__parameters:\n    a: 1\n", "no 'global_costmap' section"),
     ("global_costmap:\n  global_costmap:\n    ros__parameters:\n      track_unknown_space: "
