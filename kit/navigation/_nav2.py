@@ -149,7 +149,7 @@ _RPP_NAV2 = {"desired_linear_vel": 0.5, "lookahead_dist": 0.6, "min_lookahead_di
              "regulated_linear_scaling_min_radius": 0.9,
              "regulated_linear_scaling_min_speed": 0.25, "use_rotate_to_heading": True,
              "rotate_to_heading_min_angle": 0.785, "max_angular_accel": 3.2,
-             "cost_scaling_dist": 0.6, "cost_scaling_gain": 1.0,
+             "stateful": True, "cost_scaling_dist": 0.6, "cost_scaling_gain": 1.0,
              "inflation_cost_scaling_factor": 3.0}
 """Nav2's defaults of the Regulated Pure Pursuit parameters the kit implements."""
 
@@ -171,8 +171,6 @@ def _read_rpp(fp: Section, base: RppParameters, frequency: float, robot: RobotDe
     _fixed(fp, "use_fixed_curvature_lookahead", False, "RPP takes the curvature at the carrot")
     _fixed(fp, "interpolate_curvature_after_goal", False, "RPP takes the curvature at the "
                                                           "carrot")
-    _fixed(fp, "stateful", False, "RPP checks the goal's heading at every tick (Nav2's "
-                                  "stateful RPP keeps turning once it started)")
     _fixed(fp, "min_distance_to_obstacle", 0.0, "RPP checks collisions along the arc only")
     fp.ignore_all(NO_EFFECT, ("transform_tolerance",))
     fp.ignore_all("no effect: the kit's goals are not cancelled mid-way",

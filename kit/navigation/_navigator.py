@@ -162,6 +162,8 @@ class Navigator:
         self.goal_checker = GoalChecker(p.xy_goal_tolerance, p.yaw_goal_tolerance, p.stateful,
                                         p.trans_stopped_velocity if p.goal_checker == "stopped"
                                         else None, p.rot_stopped_velocity)
+        if hasattr(self.controller, "goal_dist_tol"):   # Nav2: getTolerances, every cycle
+            self.controller.goal_dist_tol = p.xy_goal_tolerance
         fp, b = footprint, config.behaviors
         ahead, allowance = b.simulate_ahead_time, b.time_allowance
         self.behaviors: list[Behavior | None] = [

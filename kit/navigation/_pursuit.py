@@ -120,6 +120,9 @@ class RppParameters:
     regulated_linear_scaling_min_speed: float = 0.25
     use_rotate_to_heading: bool = True
     rotate_to_heading_min_angle: float = 0.785
+    stateful: bool = True
+    """Once the goal has come within the goal checker's tolerance, keep turning to its heading
+    until a new path (Nav2's ``stateful``, Jazzy)."""
     max_angular_accel: float = 3.2
     cost_scaling_dist: float = 0.3
     cost_scaling_gain: float = 1.0
@@ -186,12 +189,23 @@ class RegulatedPurePursuit:
         self._index = 0
         self._outline: FloatArray | None = None
         self.last_carrot: FloatArray = np.zeros(2)
+        self.goal_dist_tol = 0.25
+        """The goal checker's ``xy_goal_tolerance`` [m]: the controller turns to the goal's
+        heading once the lookahead point (the goal, near the end) is closer than this, as
+        Nav2's does; the navigator sets it from its goal checker (0.25 m: Nav2's value before
+        the first update)."""
+        self._reached_xy = False
 
     def set_plan(self, path: ArrayLike, goal_yaw: float | None = None) -> None:
         """A new path ((N, 2) [m], map frame) and, optionally, the goal's heading."""
         self.path = check_path(path)
         self.goal_yaw = goal_yaw
         self._index = 0
+        self._reached_xy = False
+
+    def reset(self) -> None:
+        """Forget that the goal was within tolerance (Nav2's ``reset``, on a new goal)."""
+        self._reached_xy = False
 
     def lookahead(self, speed: float) -> float:
         p = self.params
@@ -216,7 +230,10 @@ class RegulatedPurePursuit:
         dt = 1.0 / p.controller_frequency
         remaining = remaining_length(self.path, pose_, self._index)
         if p.use_rotate_to_heading:
-            to_goal = (self.goal_yaw is not None and remaining < 0.25)
+            # Nav2's shouldRotateToGoalHeading: the lookahead point within the goal tolerance
+            near = math.hypot(float(local[0]), float(local[1])) < self.goal_dist_tol
+            self._reached_xy = (self._reached_xy or near) if p.stateful else near
+            to_goal = self.goal_yaw is not None and self._reached_xy
             angle = (float(geometry.wrap_angle(self.goal_yaw - pose_[2])) if to_goal
                      and self.goal_yaw is not None else math.atan2(local[1], local[0]))
             if to_goal or abs(angle) > p.rotate_to_heading_min_angle:

@@ -121,6 +121,37 @@ def test_rpp_slows_approaching_the_goal_and_rotates_to_a_path_behind_it():
     assert v == 0.0 and 0 < abs(w) <= p.max_angular_accel / p.controller_frequency + 1e-12
 
 
+def test_rpp_turns_to_the_goal_heading_only_within_the_goal_checkers_tolerance():
+    """Nav2's shouldRotateToGoalHeading: the lookahead point (the goal, near the end) closer
+    than the goal checker's xy tolerance. 0.20 m short of the goal with a 0.10 m tolerance the
+    robot still drives (approach speed 0.5 · 0.2 / 0.6); with Nav2's default 0.25 m it turns
+    on the spot (here: already facing the heading, so it stands)."""
+    c = RegulatedPurePursuit()
+    c.set_plan([(0.0, 0.0), (2.0, 0.0)], goal_yaw=0.0)
+    c.goal_dist_tol = 0.10
+    v, w = c.compute_velocity_commands((1.8, 0.0, 0.0), (0.2, 0.0))
+    assert (v, w) == (pytest.approx(0.5 * 0.2 / 0.6), 0.0)
+    c.goal_dist_tol = 0.25
+    assert c.compute_velocity_commands((1.8, 0.0, 0.0), (0.2, 0.0)) == (0.0, 0.0)
+    # stateful (Nav2's default): once within, it keeps turning even if it drifts out
+    c.goal_dist_tol = 0.10
+    assert c.compute_velocity_commands((1.8, 0.0, 0.0), (0.0, 0.0)) == (0.0, 0.0)
+    c.set_plan([(0.0, 0.0), (2.0, 0.0)], goal_yaw=0.0)             # a new path forgets it
+    assert c.compute_velocity_commands((1.8, 0.0, 0.0), (0.2, 0.0))[0] > 0.1
+
+
+@pytest.mark.parametrize("tolerance", [0.25, 0.10, 0.05])
+def test_rpp_reaches_goals_with_tolerances_below_a_quarter_metre(tolerance):
+    """The navigator gives the controller its goal checker's tolerance: with 0.10 m (a common
+    Nav2 setting) the kit's RPP used to stop turning 0.25 m short and never finish."""
+    nav = Navigator(free_grid(), load("uiabot"), controller="rpp",
+                    params=NavigatorParameters(xy_goal_tolerance=tolerance))
+    nav.navigate_to_pose((8.0, 1.0, 0.0))
+    end = drive(nav, (1.0, 1.0, 0.0), 60.0)[-1]
+    assert nav.status == SUCCEEDED, nav.reason
+    assert math.hypot(end[0] - 8.0, end[1] - 1.0) < tolerance
+
+
 def test_rpp_refuses_an_arc_into_a_wall():
     costs = np.zeros((40, 40), np.uint8)
     costs[:, 12] = LETHAL_OBSTACLE               # a wall at x = 0.6 m
