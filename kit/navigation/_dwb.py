@@ -19,9 +19,11 @@ Every control period (1 / ``controller_frequency``):
    local goal, in cells), ``PathAlign`` and ``GoalAlign`` (the same for a point
    ``forward_point_distance`` — each critic its own — ahead of the last pose, so the robot
    faces along the path; off when the goal is within that distance plus
-   ``xy_goal_tolerance`` — Nav2 turns them off within ``forward_point_distance``, where a
-   robot standing just outside the tolerance is held still by a forward point that can only
-   overshoot the path's end), ``RotateToGoal`` (once the robot has come within
+   ``xy_goal_tolerance``: the kit's rule — Nav2 turns PathAlign off within
+   ``forward_point_distance`` and never GoalAlign, whose point it sets
+   ``forward_point_distance`` beyond the goal; the kit's point ahead of the robot could only
+   overshoot the path's end and hold a robot just outside the tolerance still),
+   ``RotateToGoal`` (once the robot has come within
    ``xy_goal_tolerance`` of the goal: first only samples slower than now, scored by
    ``slowing_factor`` · v² and the heading error they end with — or have at ``lookahead_time``
    — ; once slower than ``trans_stopped_velocity`` only turns in place, scored by that error)
@@ -30,10 +32,26 @@ Every control period (1 / ``controller_frequency``):
 4. **The best** — the valid trajectory with the lowest weighted sum; none valid raises
    :class:`~kit.navigation.ControlError` ("no valid trajectory").
 
-Parameter names and defaults are Nav2's. Two simplifications, stated: all trajectories have
-the same number of steps (that of the fastest sample), and the distance grids are Euclidean
-distance transforms (scipy) where DWB's MapGrid spreads 4-connected distances around
-obstacles.
+Parameter names and defaults are Nav2's; the kit's DWB differs from Nav2's in these ways,
+stated:
+
+- all trajectories have the same number of steps (that of the fastest sample);
+- the distance grids are Euclidean distance transforms (scipy), where DWB's MapGrid
+  propagates Manhattan distances over every cell (``propogateManhattanDistances``);
+- every critic weighs its ``scale``: Nav2 weighs the four that score distances in cells
+  (PathDist, GoalDist, PathAlign, GoalAlign) ``scale · resolution / 2`` (``getScale``), so
+  with a Nav2 file's scales the kit's path and goal critics weigh 2 / resolution times more
+  against BaseObstacle and RotateToGoal than Nav2's (40 times at 5 cm cells);
+- standing still is a valid sample unless a kinematic limit is set; Nav2 never allows it,
+  so where only standing still is left it reports no valid trajectory and recovers;
+- BaseObstacle rules out a trajectory whose footprint meets a lethal cell (Nav2's
+  BaseObstacle checks the centre's cost, its ObstacleFootprint the outline);
+- the local plan runs from the closest point of the path forwards, where Nav2's starts up to
+  ``prune_distance`` behind the robot.
+
+The kit's scenarios are tuned to these; taking Nav2's weights and its standing-still rule
+alone (measured: the office tour's first goal with the Uiabot) made the robot stall near
+goals among people (67 s instead of 43 s, with recoveries), so they wait for a re-tuning.
 """
 
 from __future__ import annotations
