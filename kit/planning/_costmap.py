@@ -21,8 +21,12 @@ are Euclidean between cell centres, ``d = resolution · √(Δcol² + Δrow²)``
 radius is inscribed (253): Nav2 compares ``d ≤ r_ins`` in double precision, and so does the
 kit — mind that a map's ``resolution`` is a float32 (0.05 is 0.0500000007...), so two cells of
 a 0.05 m map are 0.1000000015 m, *beyond* an inscribed radius of 0.1 m. The kit evaluates the
-formula at the exact Euclidean distance transform, as Nav2's legacy layer does with its cached
-table of cell offsets (Nav2's newest layer rounds the distance to 1/100 cell first).
+formula at the exact Euclidean distance to the nearest lethal cell. Nav2's layer is not exact:
+it spreads outwards from the lethal cells cell by cell, and a cell keeps the distance to the
+obstacle whose spread reached it first, which is not always the nearest (its cached table of
+cell offsets then gives that distance; the newest layer rounds it to 1/100 cell first). On 20
+random 120 × 120 maps of walls 0.06 % of the cells differ, by at most 9, the kit's the higher,
+and no cell changes whether it is inscribed (253).
 """
 
 from __future__ import annotations

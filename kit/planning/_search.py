@@ -23,8 +23,12 @@ Conventions:
   ``b`` costs ``w_euc_cost · |ab| + w_traversal_cost · Σ ((26 + 0.9 c) / 252)²`` over the
   cells the segment enters. Reaching a neighbour of the cell being expanded, the straight
   segment from that cell's parent (if in line of sight) is taken unless the step through the
-  cell itself is cheaper — as Nav2 does; plain Theta* always takes the segment, which with
-  traversal costs can be the dearer one.
+  cell itself is cheaper; plain Theta* always takes the segment, which with traversal costs
+  can be the dearer one. Nav2's Theta* planner (``theta_star.cpp``) shares the cost model but
+  not the search, so its paths differ: it re-parents a cell to its grandparent only when the
+  cell is expanded, it lets a diagonal step pass between two blocked cells, and (up to Jazzy
+  and Kilted; Nav2 issue #5863) its line of sight along a row or column is blocked only where
+  two neighbouring cells both are, so its paths can cross a lethal cell. The kit's never do.
 
 Start or goal off the grid or untraversable raises :class:`PlanningError` (a ``ValueError``
 carrying Nav2's ``ComputePathToPose`` error code); a goal that cannot be reached is a result
