@@ -27,8 +27,9 @@ Conventions:
   can be the dearer one. Nav2's Theta* planner (``theta_star.cpp``) shares the cost model but
   not the search, so its paths differ: it re-parents a cell to its grandparent only when the
   cell is expanded, it lets a diagonal step pass between two blocked cells, and (Humble to
-  Kilted; Nav2 issue #5863, fixed in Lyrical) its line of sight along a row or column is blocked only where
-  two neighbouring cells both are, so its paths can cross a lethal cell. The kit's never do.
+  Kilted; Nav2 issue #5863, fixed in Lyrical) its line of sight along a row or column is
+  blocked only where two neighbouring cells both are, so its paths can cross a lethal cell.
+  The kit's never do.
 
 Start or goal off the grid or untraversable raises :class:`PlanningError` (a ``ValueError``
 carrying Nav2's ``ComputePathToPose`` error code); a goal that cannot be reached is a result
