@@ -8,20 +8,27 @@ are and never move a point onto a cell costlier than ``max_cost`` — by default
 ``max_cost`` keeps more clearance. They return a :class:`SmoothedPath` whose ``reason`` says
 when and why smoothing stopped short.
 
+Both smooth a path piece by piece between its cusps (where it turns back: :func:`segments`),
+each piece's ends kept, as Nav2's smoothers do; a piece too short is left as it is.
+
 * :func:`simple_smooth` — Nav2's ``SimpleSmoother``: gradient steps
   ``y_i += w_data (x_i − y_i) + w_smooth (y_{i+1} + y_{i−1} − 2 y_i)`` until the total change
-  of an iteration drops below ``tolerance``; an iteration that would put a point on a costly
-  cell is undone and smoothing stops there. ``do_refinement`` smooths the result again,
-  ``refinement_num`` times.
+  of an iteration drops below ``tolerance``, at most ``max_its − 1`` of them (Nav2 stops when
+  its count reaches ``max_its``); an iteration that would put a point on a costly cell is
+  undone and that piece stops there. ``do_refinement`` smooths the result again,
+  ``refinement_num`` times. Pieces of fewer than 5 points are left alone.
 * :func:`savitzky_golay_smooth` — Nav2's ``SavitzkyGolaySmoother``: each interior point
   becomes the least-squares polynomial fit (``poly_order``) of the ``window_size`` points
-  around it (the path's ends repeated beyond them); refinement applies it again. If the result
-  touches a costly cell the input comes back unchanged, as the smoother server rejects a
-  colliding path.
+  around it (the piece's ends repeated beyond them); refinement applies it again. Pieces of
+  fewer than ``window_size + 4`` points (11: Nav2's filter has 7) are left alone. If the
+  result touches a costly cell the input comes back unchanged: the kit's rule (Nav2's
+  plugin never looks at the costmap; its smoother server checks only when the goal asks,
+  ``check_for_collisions``, off by default).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -37,6 +44,7 @@ __all__ = [
     "resample",
     "savitzky_golay_coefficients",
     "savitzky_golay_smooth",
+    "segments",
     "simple_smooth",
 ]
 
@@ -128,10 +136,27 @@ def _too_costly(points: FloatArray, costmap: Costmap | None, max_cost: int) -> i
     return int(np.argmax(bad)) if bad.any() else -1
 
 
+def segments(points: ArrayLike) -> list[tuple[int, int]]:
+    """``(start, end)`` indices (inclusive) of a path's pieces between cusps, where it turns
+    back (Nav2's ``findDirectionalPathSegments``: the steps into and out of a point have a
+    negative dot product). A cusp ends one piece and starts the next; the smoothers keep it.
+
+    >>> segments([(0, 0), (1, 0), (2, 0), (1.5, 0.1), (1, 0.2)])
+    [(0, 2), (2, 4)]
+    """
+    p = _check_points(points)
+    if len(p) < 3:
+        return [(0, len(p) - 1)]
+    step = np.diff(p, axis=0)
+    cusps = np.flatnonzero(np.einsum("nd,nd->n", step[:-1], step[1:]) < 0.0) + 1
+    bounds = [0, *cusps.tolist(), len(p) - 1]
+    return list(itertools.pairwise(bounds))
+
+
 def _simple_pass(data: FloatArray, costmap: Costmap | None, w_data: float, w_smooth: float,
                  tolerance: float, max_its: int, max_cost: int) -> tuple[FloatArray, int, str]:
     y = data.copy()
-    for its in range(1, max_its + 1):
+    for its in range(1, max_its):     # Nav2 stops when the count reaches max_its, undone
         last = y.copy()
         change = 0.0
         for i in range(1, len(y) - 1):             # Gauss-Seidel: y[i-1] is already new
@@ -144,25 +169,31 @@ def _simple_pass(data: FloatArray, costmap: Costmap | None, w_data: float, w_smo
                                f"cell of cost above {max_cost} (or off the map)")
         if change < tolerance:
             return y, its, ""
-    return y, max_its, f"did not converge in max_its = {max_its} iterations"
+    return y, max(max_its - 1, 0), f"did not converge in max_its = {max_its} iterations"
 
 
 def simple_smooth(points: ArrayLike, costmap: Costmap | None = None, *, w_data: float = 0.2,
                   w_smooth: float = 0.3, tolerance: float = 1e-10, max_its: int = 1000,
                   do_refinement: bool = True, refinement_num: int = 2,
                   max_cost: int = MAX_NON_OBSTACLE) -> SmoothedPath:
-    """Nav2's simple smoother (parameters by Nav2's names; see the module docs)."""
-    p = _check_points(points)
-    if len(p) < 3:
-        return SmoothedPath(p, 0, "")
-    rounds = 1 + (refinement_num if do_refinement else 0)
-    total = 0
-    for _ in range(rounds):
-        p, its, reason = _simple_pass(p, costmap, w_data, w_smooth, tolerance, max_its, max_cost)
-        total += its
-        if reason:
-            return SmoothedPath(p, total, reason)
-    return SmoothedPath(p, total, "")
+    """Nav2's simple smoother (parameters by Nav2's names; see the module docs): each piece
+    between cusps (:func:`segments`) of at least 5 points smoothed on its own, its ends kept."""
+    p = _check_points(points).copy()
+    total, reasons = 0, []
+    for start, end in segments(p):
+        if end - start <= 3:                       # Nav2: too short to smooth
+            continue
+        piece = p[start:end + 1]
+        for _ in range(1 + (refinement_num if do_refinement else 0)):
+            piece, its, reason = _simple_pass(piece, costmap, w_data, w_smooth, tolerance,
+                                              max_its, max_cost)
+            total += its
+            if reason:
+                reasons.append(reason if start == 0 and end == len(p) - 1 else
+                               f"points {start}-{end}: {reason}")
+                break
+        p[start:end + 1] = piece
+    return SmoothedPath(p, total, "; ".join(reasons))
 
 
 def savitzky_golay_coefficients(window_size: int = 7, poly_order: int = 3) -> FloatArray:
@@ -187,19 +218,27 @@ def savitzky_golay_smooth(points: ArrayLike, costmap: Costmap | None = None, *,
                           window_size: int = 7, poly_order: int = 3, do_refinement: bool = True,
                           refinement_num: int = 2,
                           max_cost: int = MAX_NON_OBSTACLE) -> SmoothedPath:
-    """Nav2's Savitzky–Golay smoother (parameters by Nav2's names; see the module docs).
-    Paths of fewer than ``window_size + 2`` points are returned as they are."""
+    """Nav2's Savitzky–Golay smoother (parameters by Nav2's names; see the module docs): each
+    piece between cusps (:func:`segments`) of at least ``window_size + 4`` points (11 for
+    Nav2's 7-point filter) filtered on its own, its ends kept."""
     weights = savitzky_golay_coefficients(window_size, poly_order)
     p = _check_points(points)
-    if len(p) < window_size + 2:
-        return SmoothedPath(p, 0, f"fewer than window_size + 2 = {window_size + 2} points")
-    half = (window_size - 1) // 2
-    index = np.clip(np.arange(1, len(p) - 1)[:, None] + np.arange(-half, half + 1)[None, :],
-                    0, len(p) - 1)
     y = p.copy()
+    half = (window_size - 1) // 2
     rounds = 1 + (refinement_num if do_refinement else 0)
-    for _ in range(rounds):
-        y[1:-1] = np.einsum("w,nwd->nd", weights, y[index])
+    smoothed = 0
+    for start, end in segments(p):
+        if end - start < window_size + 3:          # Nav2: end - start > 9 for 7 points
+            continue
+        n = end - start + 1
+        index = start + np.clip(np.arange(1, n - 1)[:, None] +
+                                np.arange(-half, half + 1)[None, :], 0, n - 1)
+        for _ in range(rounds):
+            y[start + 1:end] = np.einsum("w,nwd->nd", weights, y[index])
+        smoothed += 1
+    if not smoothed:
+        return SmoothedPath(p, 0, f"no piece of at least window_size + 4 = {window_size + 4} "
+                                  f"points between cusps")
     bad = _too_costly(y[1:-1], costmap, max_cost)
     if bad >= 0:
         return SmoothedPath(p, rounds, f"rejected: point {bad + 1} of the smoothed path is on a "

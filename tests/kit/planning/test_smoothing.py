@@ -105,7 +105,7 @@ def test_straight_lines_stay_straight_and_short_paths_are_left_alone():
     np.testing.assert_allclose(simple_smooth(line).points, line, atol=1e-9)
     two = np.array([[0.0, 0.0], [1.0, 1.0]])
     assert simple_smooth(two).points.tolist() == two.tolist()
-    assert "fewer than" in savitzky_golay_smooth(two).reason
+    assert "no piece of at least" in savitzky_golay_smooth(two).reason
     with pytest.raises(ValueError, match=r"\(N, 2\) array of finite"):
         simple_smooth([[0, 0, 0]])
 
@@ -122,3 +122,48 @@ def test_savitzky_golay_rejects_a_result_that_would_collide():
     free = savitzky_golay_smooth(corner, Costmap(np.zeros((8, 8), np.uint8), 1.0),
                                  window_size=5, poly_order=1, do_refinement=False)
     np.testing.assert_allclose(free.points[5], [4.9, 1.1])
+
+
+def _zigzag(n):
+    x = np.arange(n) * 0.1
+    return np.column_stack([x, 0.05 * np.sin(2.1 * x / 0.1)])
+
+
+def test_pieces_too_short_for_nav2s_smoothers_are_left_alone():
+    """Nav2 smooths a piece only when ``end − start > 3`` (simple: 5 points) or ``> 9``
+    (Savitzky–Golay's 7-point filter: 11 points); shorter ones come back as they went in."""
+    for n, moved in ((4, False), (5, True)):
+        path = _zigzag(n)
+        assert (np.abs(simple_smooth(path).points - path).max() > 1e-3) == moved, n
+    for n, moved in ((10, False), (11, True)):
+        path = _zigzag(n)
+        assert (np.abs(savitzky_golay_smooth(path).points - path).max() > 1e-3) == moved, n
+
+
+def test_max_its_counts_as_nav2s_loop_does():
+    """Nav2's loop stops, undoing nothing more, when its count reaches ``max_its``: at most
+    ``max_its − 1`` iterations. One iteration is one Gauss–Seidel sweep of Nav2's update."""
+    path = _zigzag(8)
+    none = simple_smooth(path, max_its=1, do_refinement=False)
+    assert none.iterations == 0 and none.points.tolist() == path.tolist()
+    one = simple_smooth(path, max_its=2, do_refinement=False)
+    y = path.copy()
+    for i in range(1, len(y) - 1):
+        y[i] += 0.2 * (path[i] - y[i]) + 0.3 * (y[i + 1] + y[i - 1] - 2.0 * y[i])
+    assert one.iterations == 1 and "did not converge" in one.reason
+    np.testing.assert_array_equal(one.points, y)
+
+
+def test_a_cusp_splits_the_path_and_stays_where_it_is():
+    """A three-point turn: forward along x, then back up and to the left. Nav2 smooths each
+    piece between cusps on its own (``findDirectionalPathSegments``), keeping the cusp."""
+    forward = np.column_stack([np.linspace(0.0, 1.0, 11), 0.02 * np.sin(np.arange(11))])
+    back = np.column_stack([np.linspace(0.95, 0.3, 14), np.linspace(0.05, 0.7, 14)])
+    path = np.vstack([forward, back])
+    from kit.planning._smoothing import segments
+    assert segments(path) == [(0, 10), (10, 24)]
+    for smoother in (simple_smooth, savitzky_golay_smooth):
+        out = smoother(path).points
+        np.testing.assert_array_equal(out[10], path[10])
+        np.testing.assert_array_equal(out[:11], smoother(path[:11]).points)
+        np.testing.assert_array_equal(out[10:], smoother(path[10:]).points)
