@@ -42,6 +42,26 @@ def room():
     return Costmap(costs, 0.1, origin=(-1.0, -2.0))
 
 
+def test_theta_star_paths_have_a_point_every_cell_between_their_corners():
+    """Nav2's Theta* planner hands its controller a path interpolated at the costmap's
+    resolution (linearInterpolation: ``⌊length / resolution⌋ − 1`` points inside each
+    segment, so the last step before a corner is shorter than two cells), not the corners
+    alone: a controller such as DWB needs a dense path. The kit keeps the goal as the last
+    point, where Nav2's path stops short of it."""
+    cm = Costmap(np.zeros((10, 12), np.uint8), 0.1)
+    result = compute_path_to_pose(pose(0.05, 0.05), pose(0.95, 0.05), cm,
+                                  planner=ThetaStarPlanner())
+    points = path_to_points(result.path)
+    assert len(points) == 9 and (points[:, 1] == 0.05).all()     # 0.9 / 0.1 = 8.999… in floats
+    np.testing.assert_allclose(points[:-1, 0], np.arange(8) * 0.1 + 0.05, atol=1e-12)
+    assert points[-1].tolist() == [0.95, 0.05]
+    turn = compute_path_to_pose(pose(0.0, -1.0), pose(7.0, -1.0), room(),
+                                planner=ThetaStarPlanner())
+    corners = ThetaStarPlanner().leg((0.0, -1.0, 0.0), (7.0, -1.0, 0.0), room())[1]
+    steps = np.hypot(*np.diff(path_to_points(turn.path), axis=0).T)
+    assert len(steps) > 10 * len(corners.cells) and steps.max() < 0.2
+
+
 @pytest.mark.parametrize("planner", [GridPlanner(), GridPlanner(use_astar=False),
                                      ThetaStarPlanner()])
 def test_path_goes_from_start_through_the_door_to_the_goal(planner):
