@@ -236,19 +236,21 @@ class ObstacleLayer:
         return (row, col) if row < height and col < width else None
 
     def _clip(self, ox: float, oy: float, wx: float, wy: float) -> tuple[float, float]:
-        """Shorten the ray from the sensor to ``(wx, wy)`` to end on the map, as Nav2 does."""
+        """Shorten the ray from the sensor to ``(wx, wy)`` to end on the map, as Nav2's
+        ``raytraceFreespace`` does: the beam's direction taken once, each edge's crossing at
+        ``t = (edge − o) / a`` along it."""
         a, b = wx - ox, wy - oy
         x0, y0 = self.origin
         x1 = x0 + self.costs.shape[1] * self.resolution
         y1 = y0 + self.costs.shape[0] * self.resolution
         if wx < x0:
-            wx, wy = x0, oy + b * (x0 - ox) / a
+            wx, wy = x0, oy + b * ((x0 - ox) / a)
         if wy < y0:
-            wx, wy = ox + a * (y0 - oy) / b, y0
+            wx, wy = ox + a * ((y0 - oy) / b), y0
         if wx > x1:
-            wx, wy = x1 - 0.001, oy + b * (x1 - ox) / a
+            wx, wy = x1 - 0.001, oy + b * ((x1 - ox) / a)
         if wy > y1:
-            wx, wy = ox + a * (y1 - oy) / b, y1 - 0.001
+            wx, wy = ox + a * ((y1 - oy) / b), y1 - 0.001
         return wx, wy
 
     def _clip_all(self, sensor: tuple[float, float], points: FloatArray) -> FloatArray:
@@ -258,19 +260,19 @@ class ObstacleLayer:
         x1 = x0 + self.costs.shape[1] * self.resolution
         y1 = y0 + self.costs.shape[0] * self.resolution
         wx, wy = points[:, 0].copy(), points[:, 1].copy()
+        a, b = wx - ox, wy - oy                     # the direction, once (as Nav2)
         with np.errstate(divide="ignore", invalid="ignore"):
             for low, end, is_x, inset in ((x0, x0, True, 0.0), (y0, y0, False, 0.0),
                                           (None, x1, True, 0.001), (None, y1, False, 0.001)):
-                a, b = wx - ox, wy - oy
                 beyond = (wx < end) if low is not None and is_x else \
                     (wy < end) if low is not None else (wx > end) if is_x else (wy > end)
                 if not beyond.any():
                     continue
                 if is_x:
-                    wy = np.where(beyond, oy + b * (end - ox) / a, wy)
+                    wy = np.where(beyond, oy + b * ((end - ox) / a), wy)
                     wx = np.where(beyond, end - inset, wx)
                 else:
-                    wx = np.where(beyond, ox + a * (end - oy) / b, wx)
+                    wx = np.where(beyond, ox + a * ((end - oy) / b), wx)
                     wy = np.where(beyond, end - inset, wy)
         return np.column_stack([wx, wy])
 

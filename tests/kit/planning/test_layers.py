@@ -317,6 +317,22 @@ def test_the_compiled_ray_trace_clears_the_cells_of_nav2s_steps_beam_by_beam():
     assert 500 < np.count_nonzero(fast.costs == 0) < 8000
 
 
+def test_a_beam_leaving_two_edges_is_clipped_along_its_own_direction():
+    """Nav2's raytraceFreespace takes the beam's direction once, then shortens it at each edge
+    it leaves. From (0.05, 0.05) to (1.04, 3.81) on a 1 × 1 m grid the beam leaves the right
+    edge, then the top: it ends at x = 0.05 + 0.99 · 0.95 / 3.76 = 0.300 (column 3). Taking the
+    direction again after the first edge ended it at x = 0.29999 (column 2)."""
+    source = ObservationSource(clearing=True, raytrace_max_range=10.0)
+    fast = ObstacleLayer((10, 10), 0.1, (0.0, 0.0))
+    slow = ObstacleLayer((10, 10), 0.1, (0.0, 0.0))
+    fast.costs[:] = slow.costs[:] = LETHAL_OBSTACLE
+    beam = np.array([[1.04, 3.81]])
+    fast.clear(beam, (0.05, 0.05), source)
+    slow.clear_reference(beam, (0.05, 0.05), source)
+    np.testing.assert_array_equal(fast.costs, slow.costs)
+    assert fast.costs[9, 3] == 0 and fast.costs[9, 2] == LETHAL_OBSTACLE
+
+
 def test_the_kits_rules_trace_whole_beams_and_mark_by_metres():
     """``clip_rays=False``: each beam is traced to its own end cell, the cells beyond the grid
     dropped; ``range_in_cells=False``: a return marks when it is within the ranges in metres."""
