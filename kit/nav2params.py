@@ -207,6 +207,21 @@ class Nav2File:
                     found.append(ns)
         return found
 
+    def misnested_costmap(self, name: str) -> str | None:
+        """What is wrong when the file configures a costmap (``"global_costmap"``,
+        ``"local_costmap"``) one level too high: Nav2's costmap node is
+        ``/global_costmap/global_costmap``, so ``global_costmap: ros__parameters: …``
+        configures a node ``/global_costmap`` that Nav2 does not have, and Nav2 runs the
+        costmap with its defaults. ``None`` when the file does not."""
+        for ns in self.namespaces(name):
+            if not ns or ns[-1] != name:
+                where = "/" + "/".join((*ns, name))
+                return (f"{self.origin}: the parameters under {where} configure a node "
+                        f"{where}, which Nav2 does not have: its costmap node is "
+                        f"{where}/{name}, so Nav2 would run the costmap with its defaults; "
+                        f"nest them one level deeper ({name}: {name}: ros__parameters: ...)")
+        return None
+
     def node(self, name: str, *alternatives: str) -> tuple[str, dict[str, Any],
                                                            dict[str, str]]:
         """The parameters of node ``name`` (or the first of ``alternatives`` the file names):

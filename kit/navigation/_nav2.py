@@ -762,9 +762,14 @@ def load_nav2_params(source: str | Path | Mapping[str, Any],
         return Section(report, node, values, origin=origin)
 
     nav_values: dict[str, Any] = {}
+    for name in ("global_costmap", "local_costmap"):
+        problem = nav2.misnested_costmap(name)
+        if problem:
+            report.errors.append(problem)
+    report.raise_errors()
     global_costmap, local_costmap = _read_costmaps(
-        section("global_costmap/global_costmap", "global_costmap"),
-        section("local_costmap/local_costmap", "local_costmap"), base, description, nav_values)
+        section("global_costmap/global_costmap"), section("local_costmap/local_costmap"), base,
+        description, nav_values)
     local_extent = max(local_costmap.width, local_costmap.height) / 2.0
     server = section("controller_server")
     values, name, rpp, dwb = _read_controller_server(server, base, description, controller,

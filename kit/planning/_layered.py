@@ -399,7 +399,10 @@ def load_costmap_params(source: str | Path | Mapping[str, Any],
         file_origin = "parameters"
     else:
         nav2 = Nav2File(source, namespace)
-        node, params, origin = nav2.node(f"{name}/{name}", name)
+        problem = nav2.misnested_costmap(name)
+        if problem:
+            raise ValueError(problem)
+        node, params, origin = nav2.node(f"{name}/{name}")
         file_origin = nav2.origin
         if not params:
             names = sorted({e.name for e in nav2.entries})

@@ -25,7 +25,12 @@ from kit.navigation import (
     RppParameters,
     load_nav2_params,
 )
-from kit.planning import KeepoutFilterParams, ObservationSource, ObstacleLayerParams
+from kit.planning import (
+    KeepoutFilterParams,
+    ObservationSource,
+    ObstacleLayerParams,
+    load_costmap_params,
+)
 from kit.robots import load
 from sim import navdemo, scenarios
 
@@ -64,6 +69,24 @@ def check_accounted(config, source):
 @pytest.mark.parametrize("path", FILES, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_every_key_of_a_stock_file_is_used_or_reported_by_name_once(path):
     check_accounted(load_nav2_params(path, UIABOT), path)
+
+
+@pytest.mark.parametrize("costmap", ["global_costmap", "local_costmap"])
+def test_a_costmap_configured_one_level_too_high_is_refused_with_the_fix(tmp_path, costmap):
+    """Nav2's costmap node is /global_costmap/global_costmap: parameters under a one-level
+    ``global_costmap:`` configure a node Nav2 does not have, and Nav2 silently runs the costmap
+    with its defaults. The kit read them; it now says what is wrong and how to nest them."""
+    data = yaml_load(HUMBLE)
+    data[costmap] = data[costmap][costmap]          # ros__parameters one level up
+    path = tmp_path / "flat.yaml"
+    with path.open("w", encoding="utf-8") as f:
+        YAML(typ="safe", pure=True).dump(data, f)
+    message = (rf"under /{costmap} configure a node /{costmap}, which Nav2 does not have: its "
+               rf"costmap node is /{costmap}/{costmap}.* \({costmap}: {costmap}: ros__parameters")
+    with pytest.raises(ValueError, match=message):
+        load_nav2_params(path, UIABOT)
+    with pytest.raises(ValueError, match=message):
+        load_costmap_params(path, costmap)
 
 
 def test_humbles_file_sets_dwb_its_critics_the_checkers_navfn_and_the_costmaps():
