@@ -33,7 +33,7 @@ from kit.navigation._path import (
     remaining_length,
     require_positive,
 )
-from kit.planning import INSCRIBED_INFLATED_OBSTACLE, Costmap
+from kit.planning import FREE_SPACE, NO_INFORMATION, Costmap, footprint_radii
 from kit.robots import RobotDescription
 
 __all__ = ["PurePursuit", "RegulatedPurePursuit", "RppParameters", "arc_poses",
@@ -91,10 +91,13 @@ class PurePursuit:
 
 @dataclass(frozen=True)
 class RppParameters:
-    """Nav2's ``RegulatedPurePursuitController`` parameters (names, meaning, defaults), and
-    one of the kit's: ``gentler_arcs_when_colliding`` — when the arc to the lookahead point
-    would collide, try it at 1/2, 1/4, 1/8 and 1/16 of its curvature and straight on, and
-    drive the first that is free, instead of failing at once as Nav2 does (the default).
+    """Nav2's ``RegulatedPurePursuitController`` parameters (names, meaning, defaults: two of
+    them the kit's — ``use_cost_regulated_linear_velocity_scaling`` off and
+    ``cost_scaling_dist`` 0.3 m, where Nav2's are on and 0.6 m; a Nav2 file that leaves them
+    out is reported as keeping the kit's), and one of the kit's:
+    ``gentler_arcs_when_colliding`` — when the arc to the lookahead point would collide, try
+    it at 1/2, 1/4, 1/8 and 1/16 of its curvature and straight on, and drive the first that
+    is free, instead of failing at once as Nav2 does (the default).
     :meth:`for_robot` turns it on for a robot whose rear is more than 0.5 m behind its
     ``base_link`` (the IGV's front axle, 0.75 m ahead of its rear corners): such a robot
     swings its rear out on every turn, and near a wall, turning back toward the middle of a
@@ -195,6 +198,9 @@ class RegulatedPurePursuit:
         Nav2's does; the navigator sets it from its goal checker (0.25 m: Nav2's value before
         the first update)."""
         self._reached_xy = False
+        self._inscribed = footprint_radii(self.footprint)[0]
+        """The footprint's inscribed radius, as Nav2's costmap computes it (the nearest vertex
+        or edge): cost regulation reads a cost as a distance beyond it."""
 
     def set_plan(self, path: ArrayLike, goal_yaw: float | None = None) -> None:
         """A new path ((N, 2) [m], map frame) and, optionally, the goal's heading."""
@@ -268,13 +274,17 @@ class RegulatedPurePursuit:
         return v, w
 
     def _rotate(self, angle: float, w_now: float, dt: float) -> float:
+        """Nav2's rotateToHeading: ``rotate_to_heading_angular_vel`` within what
+        ``max_angular_accel`` reaches in a period, then no faster than what stops on the
+        heading at that acceleration (this last cap may brake harder, as Nav2's does)."""
         p = self.params
-        target = math.copysign(p.rotate_to_heading_angular_vel, angle)
-        # do not overshoot: no faster than what stops on the heading at max_angular_accel
-        target = math.copysign(min(abs(target), math.sqrt(2 * p.max_angular_accel *
-                                                          abs(angle))), angle)
+        sign = 1.0 if angle > 0.0 else -1.0
         step = p.max_angular_accel * dt
-        return float(np.clip(target, w_now - step, w_now + step))
+        w = float(np.clip(sign * p.rotate_to_heading_angular_vel, w_now - step, w_now + step))
+        stop = math.sqrt(2 * p.max_angular_accel * abs(angle))
+        if abs(w) > stop:
+            w = sign * stop if stop > 0.0 else 0.0
+        return w
 
     def _regulate(self, curvature: float, remaining: float, pose: FloatArray,
                   costmap: Costmap | None) -> float:
@@ -286,19 +296,22 @@ class RegulatedPurePursuit:
                                     p.approach_velocity_scaling_dist,
                                     p.min_approach_linear_velocity))
         v = p.desired_linear_vel
+        # Nav2's applyConstraints: the lower of the curvature and the cost constraints, each
+        # of the desired speed, then no slower than regulated_linear_scaling_min_speed
+        curvature_v = cost_v = v
         if p.use_regulated_linear_velocity_scaling and abs(curvature) > 1e-9:
             radius = 1.0 / abs(curvature)
             if radius < p.regulated_linear_scaling_min_radius:
-                v *= radius / p.regulated_linear_scaling_min_radius
+                curvature_v = v * radius / p.regulated_linear_scaling_min_radius
         if p.use_cost_regulated_linear_velocity_scaling and costmap is not None:
             row, col = costmap.world_to_cell(float(pose[0]), float(pose[1]), "robot")
             cost = float(costmap.costs[row, col])
-            if 0 < cost < INSCRIBED_INFLATED_OBSTACLE:
-                inscribed = float(np.min(np.hypot(*self.footprint.T)))
-                distance = -math.log(cost / (INSCRIBED_INFLATED_OBSTACLE - 1)) / \
-                    p.inflation_cost_scaling_factor + inscribed
+            if cost not in (float(NO_INFORMATION), float(FREE_SPACE)):   # Jazzy's costConstraint
+                k = p.inflation_cost_scaling_factor
+                distance = (k * self._inscribed - math.log(cost) + math.log(253.0)) / k
                 if distance < p.cost_scaling_dist:
-                    v *= p.cost_scaling_gain * distance / p.cost_scaling_dist
+                    cost_v = v * (p.cost_scaling_gain * distance / p.cost_scaling_dist)
+        v = min(curvature_v, cost_v)
         if v < p.desired_linear_vel:
             v = max(v, p.regulated_linear_scaling_min_speed)
         if remaining < p.approach_velocity_scaling_dist:

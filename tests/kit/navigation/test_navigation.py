@@ -152,6 +152,41 @@ def test_rpp_reaches_goals_with_tolerances_below_a_quarter_metre(tolerance):
     assert math.hypot(end[0] - 8.0, end[1] - 1.0) < tolerance
 
 
+def test_rpp_rotation_brakes_to_stop_on_the_heading_after_the_acceleration_limit():
+    """Nav2's rotateToHeading: the turn rate within what max_angular_accel reaches in a period,
+    then capped at √(2 · a · angle), which stops on the heading. 0.1 rad left, turning at
+    1.8 rad/s: √(2 · 3.2 · 0.1) = 0.8 rad/s (the kit's earlier order gave 1.64)."""
+    c = RegulatedPurePursuit(RppParameters())
+    c.set_plan([(0.0, 0.0), (2.0, 0.0)], goal_yaw=0.0)
+    c.goal_dist_tol = 0.25
+    v, w = c.compute_velocity_commands((1.9, 0.0, -0.1), (0.0, 1.8))
+    assert v == 0.0 and w == pytest.approx(math.sqrt(2 * 3.2 * 0.1))
+
+
+def test_rpp_cost_regulation_reads_a_cost_as_nav2_jazzy_does():
+    """Jazzy's costConstraint: distance = (k · r_ins − ln cost + ln 253) / k with the footprint's
+    inscribed radius (nearest vertex or edge: 0.2 m for a 0.4 m square), speed scaled by
+    gain · distance / cost_scaling_dist. Cost 100 everywhere, k = 3, 0.6 m: 0.5 · 0.50941 / 0.6."""
+    p = RppParameters(use_cost_regulated_linear_velocity_scaling=True, cost_scaling_dist=0.6,
+                      max_linear_accel=100.0)
+    square = [[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]]
+    c = RegulatedPurePursuit(p, square)
+    c.set_plan([(x, 2.0) for x in np.linspace(0.0, 6.0, 121)])
+    costmap = Costmap(np.full((80, 120), 100, np.uint8), 0.05)
+    v, _ = c.compute_velocity_commands((1.0, 2.0, 0.0), (0.5, 0.0), costmap)
+    distance = (3.0 * 0.2 - math.log(100.0) + math.log(253.0)) / 3.0
+    assert v == pytest.approx(0.5 * distance / 0.6) and v == pytest.approx(0.42451, abs=1e-5)
+    lethal = Costmap(np.full((80, 120), 254, np.uint8), 0.05)        # Nav2 regulates 254 too
+    c.set_plan([(x, 2.0) for x in np.linspace(0.0, 6.0, 121)])
+    p2 = RppParameters(use_cost_regulated_linear_velocity_scaling=True, cost_scaling_dist=0.6,
+                       max_linear_accel=100.0, use_collision_detection=False)
+    c2 = RegulatedPurePursuit(p2, square)
+    c2.set_plan([(x, 2.0) for x in np.linspace(0.0, 6.0, 121)])
+    v254, _ = c2.compute_velocity_commands((1.0, 2.0, 0.0), (0.5, 0.0), lethal)
+    assert v254 == pytest.approx(max(0.5 * (0.6 - math.log(254.0) + math.log(253.0)) / 3.0
+                                     / 0.6, p2.regulated_linear_scaling_min_speed))
+
+
 def test_rpp_refuses_an_arc_into_a_wall():
     costs = np.zeros((40, 40), np.uint8)
     costs[:, 12] = LETHAL_OBSTACLE               # a wall at x = 0.6 m
