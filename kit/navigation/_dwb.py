@@ -261,13 +261,16 @@ class DwbController:
         self._in_window = self._rotating = False
 
     def set_plan(self, path: ArrayLike, goal_yaw: float | None = None) -> None:
-        """A new global path ((N, 2) [m] in the costmap's frame) and the goal's heading."""
+        """A new global path ((N, 2) [m] in the costmap's frame) and the goal's heading; the
+        critics start afresh, as Nav2's DWB resets them in ``setPlan`` (every replan)."""
         self.path = check_path(path)
         self.goal_yaw = goal_yaw
         self._index = 0
+        self.reset()
 
     def reset(self) -> None:
-        """Forget the oscillation history (Nav2 resets its critics on a new goal)."""
+        """Forget the oscillation history and RotateToGoal's state (Nav2's critics'
+        ``reset``)."""
         self._flips, self._last_sign = {}, (0, 0)
         self._in_window = self._rotating = False
 

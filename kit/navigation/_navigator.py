@@ -304,6 +304,7 @@ class Navigator:
             if not failure:
                 self.path = path_to_points(result.path)
                 self.controller.set_plan(self.path, float(goals[-1][2]))
+                self.goal_checker.reset()       # Nav2's setPlannerPath, on every new path
                 s.plan_failures = 0
                 self.events.append(NavigationEvent(time, "plan", f"{len(self.path)} points"))
                 return

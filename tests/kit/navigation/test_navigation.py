@@ -187,6 +187,22 @@ def test_rpp_cost_regulation_reads_a_cost_as_nav2_jazzy_does():
                                      / 0.6, p2.regulated_linear_scaling_min_speed))
 
 
+@pytest.mark.parametrize("controller", ["rpp", "dwb"])
+def test_every_new_path_rearms_the_stateful_goal_checker(controller):
+    """Nav2's controller server resets its goal checker whenever it is given a path
+    (setPlannerPath: every replan, once a second), and the controllers start afresh (DWB's
+    critics, RPP's latch): a robot that came within the tolerance, then drifted out while
+    turning, is not at its goal after the next replan."""
+    nav = Navigator(free_grid(), load("uiabot"), controller=controller)
+    nav.navigate_to_pose((8.0, 1.0, 0.0))
+    gc = nav.goal_checker
+    goal = np.array([8.0, 1.0, 0.0])
+    assert not gc.is_goal_reached((7.9, 1.0, 1.5), goal, (0.0, 0.0))    # within xy: latched
+    assert gc.is_goal_reached((7.6, 1.0, 0.0), goal, (0.0, 0.0))        # 0.4 m out, stateful
+    nav.tick(0.0, np.array([1.0, 1.0, 1.0]), np.zeros(2))               # plans: a new path
+    assert not gc.is_goal_reached((7.6, 1.0, 0.0), goal, (0.0, 0.0))
+
+
 def test_rpp_refuses_an_arc_into_a_wall():
     costs = np.zeros((40, 40), np.uint8)
     costs[:, 12] = LETHAL_OBSTACLE               # a wall at x = 0.6 m
