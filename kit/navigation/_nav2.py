@@ -762,11 +762,8 @@ def load_nav2_params(source: str | Path | Mapping[str, Any],
         return Section(report, node, values, origin=origin)
 
     nav_values: dict[str, Any] = {}
-    for name in ("global_costmap", "local_costmap"):
-        problem = nav2.misnested_costmap(name)
-        if problem:
-            report.errors.append(problem)
-    report.raise_errors()
+    report.errors.extend(filter(None, map(nav2.misnested_costmap,      # raised below, with
+                                          ("global_costmap", "local_costmap"))))  # the rest
     global_costmap, local_costmap = _read_costmaps(
         section("global_costmap/global_costmap"), section("local_costmap/local_costmap"), base,
         description, nav_values)
