@@ -32,9 +32,11 @@ from numpy.typing import NDArray
 
 from kit import geometry, msgs
 
-__all__ = ["FREE_THRESH", "OCCUPIED_THRESH", "MapError", "cells_of", "check_thresholds",
+__all__ = ["FREE_THRESH", "MODES", "OCCUPIED_THRESH", "MapError", "cells_of", "check_thresholds",
            "read_image", "read_map", "read_pgm", "saved_values", "write_map"]
 
+MODES = ("trinary", "scale", "raw")
+"""map_server's map modes (the YAML's ``mode``; trinary when it has none)."""
 FREE_THRESH = 0.196
 """map_server's default ``free_thresh``: a cell less likely occupied than this is free."""
 OCCUPIED_THRESH = 0.65
@@ -176,8 +178,8 @@ def cells_of(grey: NDArray[np.uint8], alpha: NDArray[np.uint8] | None, mode: str
     check_thresholds(free_thresh, occupied_thresh)
     if mode == "raw":
         return np.where(grey <= 100, grey, -1).astype(np.int8)
-    if mode not in ("trinary", "scale"):
-        raise ValueError(f"unknown map mode {mode!r}: trinary, scale or raw")
+    if mode not in MODES:
+        raise ValueError(f"unknown map mode {mode!r}: {', '.join(MODES)}")
     p = grey.astype(np.float32) / np.float32(255.0)
     if not negate:
         p = np.float32(1.0) - p
@@ -253,10 +255,11 @@ def read_map(path: str | Path, frame_id: str = "map") -> msgs.OccupancyGrid:
     if len(origin) != 3 or not all(map(math.isfinite, origin)):
         raise MapError(f"{yaml_path}: origin must be [x, y, yaw] (three finite numbers: m, m, "
                        f"rad, the lower-left cell's corner); got {meta['origin']!r}")
-    if not 0.0 <= free <= occupied <= 1.0:
-        raise MapError(f"{yaml_path}: thresholds must satisfy 0 <= free_thresh <= "
-                       f"occupied_thresh <= 1; got {free}, {occupied}")
-    if mode not in ("trinary", "scale", "raw"):
+    try:
+        check_thresholds(free, occupied)
+    except ValueError as exc:
+        raise MapError(f"{yaml_path}: {exc}") from None
+    if mode not in MODES:
         raise MapError(f"{yaml_path}: unknown mode {mode!r}")
     grey, alpha = read_image(image_path)
     cells = cells_of(grey, alpha, mode, negate, free, occupied)
