@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -564,6 +565,24 @@ def test_a_pseudo_terminal_whose_emulator_stops_is_an_error_not_a_hang():
     with pytest.raises((ProtocolError, DeviceTimeout)):
         for _ in range(10):
             lidar.read_scan()
+
+
+def test_what_a_host_that_stops_reading_cannot_take_is_counted_as_lost():
+    """The lidar streams on while its host reads nothing: once the pseudo-terminal's buffer
+    is full, the rest is lost, as on a UART, and each device's stats count it (the server's
+    ``overrun`` sums them). Waited for by count, not by time (the wait only guards a hang)."""
+    device = RPLidarEmulator()
+    with PtyServer([ODriveEmulator(), device]) as server:
+        lidar = rplidar.RPLidar(server.paths[1], timeout=0.5)
+        lidar.start()
+        for _ in range(3000):  # 30 s at most; the buffer fills within seconds at 115200
+            if device.lost:
+                break
+            time.sleep(0.01)
+        lidar.close()
+    stats = device.stats()  # the server stopped: nothing sent since
+    assert stats["lost"] == device.lost > 0 and stats["sent"] > stats["lost"]
+    assert server.devices[0].lost == 0 and server.overrun == device.lost
 
 
 # ------------------------------------------------------------------ real pseudo-terminals

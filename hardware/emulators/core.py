@@ -149,6 +149,8 @@ class Device:
         self._line_free = 0.0  # when the device's transmitter is free again
         self.received = 0
         self.sent = 0
+        self.lost = 0
+        """bytes the host's side did not take (its buffer full: a host that stopped reading)."""
         self.events: dict[str, list[float]] = {}
         """what the device did that a host records, by kind (``"turn"``, ``"imu"``,
         ``"feedback"`` …), each with the time it did it [s, the device's clock]."""
@@ -158,8 +160,10 @@ class Device:
         self.events.setdefault(kind, []).append(at)
 
     def stats(self) -> dict[str, Any]:
-        """What the device sent and did: bytes each way, and its :attr:`events`."""
+        """What the device sent and did: bytes each way, those the host's full buffer did
+        not take (:attr:`lost`), and its :attr:`events`."""
         return {"device": self.name, "sent": self.sent, "received": self.received,
+                "lost": self.lost,
                 "events": {kind: list(times) for kind, times in self.events.items()}}
 
     # ------------------------------------------------------------------ to implement
@@ -462,20 +466,21 @@ class PtyServer:
                 for device, master in channels:
                     out = device.read(now, self.host_baud(master))
                     if out:
-                        self._write(master, out)
+                        device.lost += self._write(master, out)
             except OSError:
                 if self._stop.is_set():
                     return
                 time.sleep(0.01)  # nobody on the other side right now, or just unplugged
 
-    def _write(self, master: int, data: bytes) -> None:
+    def _write(self, master: int, data: bytes) -> int:
         """Hand bytes to the host's side; what its full buffer cannot take is lost, as with
-        a real UART whose host stops reading (counted in ``overrun``)."""
+        a real UART whose host stops reading (counted in ``overrun``, and returned)."""
         try:
             written = os.write(master, data)
         except BlockingIOError:
             written = 0
         self.overrun += len(data) - written
+        return len(data) - written
 
     def start(self) -> PtyServer:
         self._thread = threading.Thread(target=self.serve, daemon=True,

@@ -11,7 +11,9 @@ A port given without ``DEVICE=`` is probed first. The bag holds each device's to
 clock), and ``/tf_static`` from the robot's URDF; it opens in ``ros2 bag``, Foxglove and
 the labs (:func:`kit.bag.read_bag`). A device whose port fails (unplugged) is reopened on
 its own, with a back-off, and the outage is reported in the summary and kept in the bag's
-``metadata.yaml`` (``custom_data``). The rates printed are computed from the stamps.
+``metadata.yaml`` (``custom_data``), as is what a device's driver noticed that the messages
+do not show (``kit_record.notes``: the lidar's stream stopped for longer than its stamps can
+bridge, its scans just after possibly stamped late). The rates printed are computed from the stamps.
 """
 
 from __future__ import annotations
@@ -126,7 +128,11 @@ def record(specs: list[tuple[str, str, int | None]], out: Path, robot: str = "ui
                     f"{g.device} {g.start}..{'' if g.end is None else g.end} ns" for g in gaps))
                 bag.custom_data("kit_record.gap_reasons",
                                 "; ".join(g.describe() for g in gaps))
-        _summary(readers, tally, out, max(time.time() - start, 1e-9), log)
+            notes = [f"{src.device}: {said}" for src in sources
+                     if src.health is not None and (said := src.health())]
+            if notes:
+                bag.custom_data("kit_record.notes", "; ".join(notes))
+        _summary(readers, tally, out, max(time.time() - start, 1e-9), log, notes)
         return tally.counts
     finally:
         for r in readers:
@@ -166,7 +172,10 @@ class _Tally:
             pass
 
 
-def _summary(readers: list[Any], tally: _Tally, out: Path, elapsed: float, log: Any) -> None:
+def _summary(readers: list[Any], tally: _Tally, out: Path, elapsed: float, log: Any,
+             notes: list[str]) -> None:
+    for note in notes:
+        log(note)
     for r in readers:
         for g in r.gaps:
             log(f"gap: {g.describe()}")

@@ -48,6 +48,8 @@ class Source:
     close: Callable[[], None]
     description: str
     reopen: Callable[[], Any] | None = None
+    health: Callable[[], str | None] | None = None
+    """What went wrong that the messages do not show (``None`` when all is well)."""
 
 
 def _wheels(base: Any) -> Callable[[], list[tuple[str, msgs.Message]]]:
@@ -67,6 +69,16 @@ def _closing(*steps: Callable[[], Any]) -> Callable[[], None]:
             except DriverError:  # a device already gone: still close the rest
                 pass
     return close
+
+
+def _stalled(lidar: Any) -> str | None:
+    stalls, clock = lidar.stalls, lidar.clock_of_samples
+    if not stalls or clock is None:
+        return None
+    return (f"{stalls} time{'s' if stalls > 1 else ''} nothing came for over {clock.window:g} s "
+            f"(a host that read nothing, or a head that sent nothing): the scans just after "
+            f"may be stamped late until the stream caught up, and what the port's buffer "
+            f"could not hold is lost")
 
 
 def open_source(device: str, port: Any, robot: str | RobotDescription = "uiabot",
@@ -91,7 +103,8 @@ def open_source(device: str, port: Any, robot: str | RobotDescription = "uiabot"
         lidar = rplidar.RPLidar(port, **waits, **rate)
         lidar.start()
         return Source(device, lambda: [("/scan", lidar.read_scan())], 0.0,
-                      _closing(lidar.stop, lidar.close), "RPLidar, standard scan", lidar.reopen)
+                      _closing(lidar.stop, lidar.close), "RPLidar, standard scan", lidar.reopen,
+                      lambda: _stalled(lidar))
     if device == "lms2xx":
         scanner = lms2xx.LMS2xx(port, **waits, **rate)
         scanner.connect(38400, 180, 1.0)

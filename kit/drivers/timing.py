@@ -14,6 +14,14 @@ for a chunk that brings the sample count to ``n``. :class:`SampleClock` keeps th
 bound over the last ``window`` seconds (so that a sample lost on the line, which shifts the
 count, or a drift between the device's clock and the host's, is forgotten within a window):
 the least delayed chunk dates them all.
+
+Only chunks that bring samples bound ``T0`` (an empty read says nothing of when the next
+sample will be taken: the device may have stopped). When nothing comes for longer than the
+window (a host that reads nothing — a stalled process, a machine busy elsewhere —, or a
+device that sends nothing), no bound is left to keep: the clock starts over from the first
+chunk after, and the samples of a backlog are dated late until a chunk comes on time again.
+:attr:`SampleClock.restarts` counts those times, so that a recording can say its stamps
+may be late there (``kit record`` prints it).
 """
 
 from __future__ import annotations
@@ -50,6 +58,9 @@ class SampleClock:
         self.transmission = transmission
         self.window = window
         self._bounds: deque[tuple[float, float]] = deque()  # (arrival, bound), bounds rising
+        self.restarts = 0
+        """arrivals after a silence longer than ``window``: every bound before was forgotten,
+        and the samples of the backlog are dated late (by up to the silence)."""
 
     def observe(self, count: int, arrival: float) -> None:
         """``count`` samples have arrived in all (sample ``count − 1`` the latest), the last
@@ -58,6 +69,8 @@ class SampleClock:
             return
         bound = arrival - self.transmission - (count - 1) * self.period
         bounds = self._bounds
+        if bounds and bounds[-1][0] < arrival - self.window:
+            self.restarts += 1
         while bounds and bounds[-1][1] >= bound:
             bounds.pop()
         bounds.append((arrival, bound))

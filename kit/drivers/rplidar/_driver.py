@@ -104,6 +104,7 @@ class RPLidar:
         """nodes decoded since the scan started (the sample clock's count)."""
         self.reordered = 0
         """turns whose stamp had to be moved past the one before (never, if all is well)."""
+        self._stalls_before = 0
         self._last_stamp = -float("inf")
         self._ready: list[Turn] = []
         self._pending = bytearray()
@@ -209,9 +210,20 @@ class RPLidar:
         self.express = kind == 0x82
         period = self.sample_times[1 if self.express else 0]
         per_node = CAPSULE / 32 if self.express else 5
+        self._stalls_before = self.stalls
         self.clock_of_samples = SampleClock(period, 10 * per_node / self.link.baudrate)
         self.samples = 0
         self.scanning = True
+
+    @property
+    def stalls(self) -> int:
+        """Times nothing came for longer than the sample clock's window while scanning
+        (:attr:`~kit.drivers.timing.SampleClock.restarts`): a host that read nothing (its
+        backlog's turns then stamped late, by up to the stall, until the stream caught up;
+        bytes beyond the port's buffer lost, as with any UART) or a head that sent nothing.
+        0 when all is well."""
+        clock = self.clock_of_samples
+        return self._stalls_before + (clock.restarts if clock is not None else 0)
 
     def start(self) -> None:
         """Line cleared (:meth:`clear_line`), motor on, health checked (asked once more if
@@ -296,8 +308,8 @@ class RPLidar:
             nodes = self.parser.feed(data)
             first = self.samples
             self.samples += len(nodes)
-            clock.observe(self.samples, arrived)
-            if nodes:
+            if nodes:  # (an empty read bounds nothing: the head may have stopped sending)
+                clock.observe(self.samples, arrived)
                 times = [clock.time_of(first + k) for k in range(len(nodes))]
                 self._ready.extend(self.turns.push(nodes, times))
         turn = self._ready.pop(0)

@@ -221,6 +221,20 @@ def test_kit_record_on_the_emulated_uiabot_gives_a_bag_rosbags_reads(tmp_path, c
               "/imu": sent["devices"]["bno055"]["events"]["imu"],
               "/joint_states": sent["devices"]["odrive"]["events"]["feedback1"]}
     printed = capsys.readouterr().out
+    # A stream that stopped for longer than the lidar's sample clock bridges (a recorder or
+    # an emulator process starved on a very busy machine: 2.7 s seen with eight test workers
+    # on two cores), or a host that read nothing for longer than the port's buffer holds: the
+    # recording says the first; the emulator counts the bytes the port could not take, and its
+    # log shows where it paused (a starved emulator goes on from the present, the turns in
+    # between never measured). Then the scans of a backlog are late and turns are lost with
+    # the bytes, as on a real robot; what is still checked is what holds however late the
+    # host read: the counts, the order and the typical message.
+    stalled = "nothing came for over" in printed
+    lidar = sent["devices"]["rplidar"]
+    turn_gaps = np.diff(events["/scan"])
+    paused = bool(np.any(turn_gaps > 1.5 * np.median(turn_gaps)))
+    intact = not stalled and lidar["lost"] == 0 and not paused
+    assert stalled == ("kit_record.notes" in Path(out, "metadata.yaml").read_text())
     for topic, tolerance in (("/scan", 0.09), ("/imu", 0.05), ("/joint_states", 0.05)):
         recorded = np.array(stamps[topic])
         device = epoch + np.array(events[topic])  # the emulator's clock, since the epoch
@@ -232,7 +246,10 @@ def test_kit_record_on_the_emulated_uiabot_gives_a_bag_rosbags_reads(tmp_path, c
         # the reader waiting (57 ms seen with both cores saturated): the typical message is
         # within the tolerance, and none is further than a busy host's scheduling
         assert np.median(error) < tolerance, (topic, np.median(error))
-        assert error.max() < 0.5, (topic, error.max())
+        # a polled device replies only when asked: a host that stopped asking (starved) shows
+        # as a pause in its replies, and a reply read that late is stamped that late
+        polling = topic == "/scan" or np.diff(device).max() < 0.5
+        assert error.max() < 0.5 or not (intact and polling), (topic, error.max())
         # never more messages than the device produced over the span they were matched to
         # (a span taken from the matches, not from the stamps: on a loaded machine the first
         # or last stamp can be later than the tolerance, one seen 59 against 58)
@@ -244,15 +261,17 @@ def test_kit_record_on_the_emulated_uiabot_gives_a_bag_rosbags_reads(tmp_path, c
             # two can be nearest the same turn): each turn once, the typical one within 20 ms
             # (a loaded machine can delay every chunk of a two-second window: 79 ms seen)
             settled = recorded > recorded[0] + 1.0
-            assert len(set(nearest[settled])) == np.count_nonzero(settled)
+            assert len(set(nearest[settled])) == np.count_nonzero(settled) or not intact
             assert np.median(error[settled]) < 0.02, (np.median(error[settled]),
                                                       error[settled].max())
         rate = (len(recorded) - 1) / (recorded[-1] - recorded[0])
         device_rate = (len(within) - 1) / (within[-1] - within[0])
-        assert rate == pytest.approx(device_rate, rel=0.05), (topic, rate, device_rate)
+        if intact or topic != "/scan":
+            assert rate == pytest.approx(device_rate, rel=0.05), (topic, rate, device_rate)
+        else:  # turns lost with the bytes: fewer, never more
+            assert rate <= device_rate * 1.05, (topic, rate, device_rate)
         line = next(x for x in printed.splitlines() if x.strip().startswith(topic + " "))
         assert float(line.split()[-2]) == pytest.approx(rate, abs=0.01)  # from the stamps
-    scan_rate = (len(events["/scan"]) - 1) / (events["/scan"][-1] - events["/scan"][0])
-    assert scan_rate == pytest.approx(5.5, rel=0.02)  # the emulated A1's 5.5 turns/s
+    assert 1.0 / np.median(turn_gaps) == pytest.approx(5.5, rel=0.02)  # the A1's 5.5 turns/s
     assert f"wrote {out}" in printed and "gap" not in printed
     assert Path(out, "metadata.yaml").exists()

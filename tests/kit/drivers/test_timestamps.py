@@ -13,6 +13,7 @@ from hardware.emulators.lms2xx import LMS2xxEmulator
 from hardware.emulators.os5000 import Os5000Emulator
 from hardware.emulators.rplidar import RPLidarEmulator
 from kit.drivers import lms2xx, os5000, rplidar
+from kit.drivers.errors import DeviceTimeout
 from kit.drivers.timing import SampleClock
 
 
@@ -98,7 +99,87 @@ def test_the_sample_clock_takes_the_least_delayed_chunk_and_forgets_old_bounds()
     assert c.time_of(1998) == pytest.approx(1.999)  # (truly taken at 2.000 − 0.001 late)
     c.observe(2999, arrival=3.0)
     assert c.time_of(2998) == pytest.approx(2.999 + 0.001)  # the old bound forgotten
+    assert c.restarts == 0  # a chunk every window: never started over
     with pytest.raises(ValueError, match="no sample has arrived yet"):
         SampleClock(1e-3).time_of(0)
+
+
+def test_the_sample_clock_counts_the_stalls_after_which_it_dated_a_backlog_late():
+    """A host that read nothing for longer than the window: the backlog's first chunk is the
+    only bound left, so its samples are dated late (by up to the stall) until a prompt chunk
+    comes; the clock says so once per stall."""
+    c = SampleClock(1e-3, transmission=0.0, window=1.0)  # sample i taken at i ms
+    c.observe(500, arrival=0.5)  # on time
+    c.observe(3000, arrival=3.0)  # 2.5 s later: 2,500 samples in one chunk, on time
+    assert c.restarts == 1 and c.time_of(0) == pytest.approx(0.001)
+    c = SampleClock(1e-3, transmission=0.0, window=1.0)
+    c.observe(500, arrival=0.5)
+    c.observe(2000, arrival=3.0)  # the backlog's first chunk: sample 1999 read 1.0 s late
+    assert c.restarts == 1 and c.time_of(1999) == pytest.approx(3.0)  # late, never early
+    c.observe(3000, arrival=3.001)  # the rest of it at once: caught up
+    assert c.time_of(2999) == pytest.approx(3.001)
+    c.observe(3500, arrival=3.5)
+    assert c.restarts == 1  # prompt chunks: no new stall
     with pytest.raises(ValueError, match="period > 0"):
         SampleClock(0.0)
+
+
+def test_a_host_that_stalls_while_the_lidar_streams_is_told_and_its_stamps_stay_in_order():
+    """The host reads nothing for 3 s (longer than the sample clock's 2 s window) while the
+    head turns on: the driver counts the stall, ``kit record``'s note for the lidar says it,
+    and the turns after it are stamped in order, never before the head measured them."""
+    from kit.drivers.live import open_source
+
+    clock = Clock()
+    device = RPLidarEmulator()
+    source = open_source("rplidar", LogicalPort(device, clock), clock=clock, sleep=clock.sleep)
+    before = [source.read()[0][1].header.stamp.to_sec() for _ in range(5)]
+    assert source.health is not None and source.health() is None  # all is well so far
+    clock.sleep(3.0)
+    after = [source.read()[0][1].header.stamp.to_sec() for _ in range(25)]
+    stamps = np.array(before + after)
+    assert np.all(np.diff(stamps) > 0)
+    measured = np.array(device.events["turn"])
+    # never early: by each stamp, at least as many turns measured as scans stamped
+    taken = np.searchsorted(measured, stamps + 1e-3, side="right")
+    assert np.all(taken >= np.arange(1, len(stamps) + 1))
+    note = source.health()
+    assert note is not None and note.startswith("1 time nothing came for over 2 s")
+    source.close()
+
+
+class _Frozen(RPLidarEmulator):
+    """An emulator that sends nothing from ``a`` to ``b`` seconds (its process stopped),
+    then goes on from the present, as the emulator does after any long pause."""
+
+    def __init__(self, a: float, b: float) -> None:
+        super().__init__()
+        self.a, self.b = a, b
+
+    def stream(self, now: float) -> None:
+        if not self.a <= now < self.b:
+            super().stream(now)
+
+
+def test_a_head_that_sends_nothing_for_a_while_is_not_dated_by_the_reads_that_found_nothing():
+    """While the driver keeps reading and nothing comes (the head's process stopped for
+    2.5 s), an empty read says nothing of when the next sample is taken: the turns after the
+    pause are stamped when they were measured, not earlier as if the head had sampled on."""
+    clock = Clock()
+    device = _Frozen(1.0, 3.5)
+    lidar = rplidar.RPLidar(LogicalPort(device, clock), clock=clock, sleep=clock.sleep)
+    lidar.start()
+    stamps = []
+    while clock.now < 6.0:
+        try:
+            stamps.append(lidar.read_turn().started)
+        except DeviceTimeout:
+            pass  # the pause: no complete turn within a second
+    stamps = np.array(stamps)
+    measured = np.array(device.events["turn"])
+    assert measured[(measured > 1.2) & (measured < 3.5)].size == 0  # the pause, in its log
+    after = stamps[stamps > 1.2]
+    assert after.size >= 10
+    nearest = np.abs(measured[:, None] - after).min(axis=0)
+    assert nearest.max() < 1e-3  # each turn after the pause at its measured time
+    assert np.all(np.diff(stamps) > 0) and lidar.stalls == 1
