@@ -386,7 +386,8 @@ def record(seconds: float = 20.0) -> None:
         error = np.abs(events[np.abs(events[:, None] - stamps).argmin(axis=0)] - stamps)
         print(f"{topic:14s} {len(stamps):5d} messages, {rate:7.2f} Hz from the stamps, the "
               f"device {device_rate:7.2f} Hz ({rate / device_rate - 1:+.2%}); stamp − device's "
-              f"time: median {np.median(error) * 1e3:.2f} ms, max {error.max() * 1e3:.2f} ms")
+              f"time: median {np.median(error) * 1e3:.2f} ms, max {error.max() * 1e3:.2f} ms, "
+              f"{sent['devices'][device]['lost']} bytes the host did not take")
 
 
 SECTIONS = {"speed": lambda: (decoding_the_scanners(), decoding_the_others(),

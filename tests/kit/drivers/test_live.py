@@ -179,7 +179,8 @@ def test_kit_record_on_the_emulated_uiabot_gives_a_bag_rosbags_reads(tmp_path, c
     Nothing here depends on the machine's speed: every message decodes, stamps increase
     strictly on every topic, and the recording is checked against the emulator's own log of
     what it measured and sent — each message one the device produced, at its time, and the
-    rates printed (from the stamps) within 5 % of the devices' own."""
+    rates printed (from the stamps) within 5 % of the devices' own; after a stall of the
+    stream (which the recording then reports), what a late host still guarantees."""
     from rosbags.highlevel import AnyReader
 
     from kit import rosconv
