@@ -472,17 +472,24 @@ def classify(conversation: Conversation, limits: Limits) -> tuple[str, str]:
 
 # ------------------------------------------------------------------ entry points
 
-_SERVERS: dict[tuple[str, str, int, int, int], GradingServer] = {}
+_SERVERS: dict[tuple[int, str, str, int, int, int], GradingServer] = {}
 _SERVERS_LOCK = threading.Lock()
 
 
 def server_for(spec: LabSpec, layer: str, limits: Limits, slots: int = 8) -> GradingServer:
-    """The grading server for ``spec`` in ``layer`` (one per process, started on first use)."""
-    key = (spec.name, layer, limits.file_mb, limits.processes, limits.scratch_mb)
+    """The grading server for ``spec`` in ``layer`` (one per process, started on first use).
+
+    Servers are told apart by the spec object itself, not its name: a server strips from its
+    submissions' processes the modules of *its* spec's references, so another spec of the
+    same name (a course's own lab01, an exercise being written) gets a server of its own and
+    never lends its server, with the wrong modules stripped, to the shipped lab. (The server
+    holds its spec, so the ``id`` in the key cannot be reused while the server is kept.)"""
+    key = (id(spec), spec.name, layer, limits.file_mb, limits.processes, limits.scratch_mb)
     with _SERVERS_LOCK:
         server = _SERVERS.get(key)
         if server is None:
             server = _SERVERS[key] = GradingServer(spec, layer, limits, slots)
+        assert server.spec is spec
         return server
 
 
@@ -538,6 +545,9 @@ def _grade(path: Path, spec: LabSpec, who: str, timeout: float, memory_mb: int,
     limits = Limits(memory_mb=memory_mb)
     layer = layer or detect_layer()
     server = server or server_for(spec, layer, limits)
+    if server.spec is not spec:  # its sandboxes strip another spec's reference modules
+        raise ValueError(f"the grading server was started for another {spec.name} spec than "
+                         f"the one being graded")
     plan = plan_cases(spec, who, secret)
     conversation = Conversation(server, spec, notebook, plan, timeout, memory_mb)
     try:
