@@ -472,7 +472,7 @@ def classify(conversation: Conversation, limits: Limits) -> tuple[str, str]:
 
 # ------------------------------------------------------------------ entry points
 
-_SERVERS: dict[tuple[int, str, str, int, int, int], GradingServer] = {}
+_SERVERS: dict[tuple[int, str, int, int, int], GradingServer] = {}
 _SERVERS_LOCK = threading.Lock()
 
 
@@ -484,12 +484,11 @@ def server_for(spec: LabSpec, layer: str, limits: Limits, slots: int = 8) -> Gra
     same name (a course's own lab01, an exercise being written) gets a server of its own and
     never lends its server, with the wrong modules stripped, to the shipped lab. (The server
     holds its spec, so the ``id`` in the key cannot be reused while the server is kept.)"""
-    key = (id(spec), spec.name, layer, limits.file_mb, limits.processes, limits.scratch_mb)
+    key = (id(spec), layer, limits.file_mb, limits.processes, limits.scratch_mb)
     with _SERVERS_LOCK:
         server = _SERVERS.get(key)
         if server is None:
             server = _SERVERS[key] = GradingServer(spec, layer, limits, slots)
-        assert server.spec is spec
         return server
 
 

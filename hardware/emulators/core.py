@@ -379,7 +379,6 @@ class PtyServer:
             self._plug(i)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self.overrun = 0
         self.t0 = clock() - start  # the devices' time: ``start`` seconds now
         self.epoch = time.time() - start if clock is time.monotonic else 0.0
 
@@ -428,6 +427,12 @@ class PtyServer:
             return self.paths[i]
 
     @property
+    def overrun(self) -> int:
+        """Bytes the host's side did not take, over the devices served now (each its
+        :attr:`Device.lost`)."""
+        return sum(d.lost for d in self.devices)
+
+    @property
     def device(self) -> Device:
         return self.devices[0]
 
@@ -474,12 +479,11 @@ class PtyServer:
 
     def _write(self, master: int, data: bytes) -> int:
         """Hand bytes to the host's side; what its full buffer cannot take is lost, as with
-        a real UART whose host stops reading (counted in ``overrun``, and returned)."""
+        a real UART whose host stops reading: how many bytes, returned."""
         try:
             written = os.write(master, data)
         except BlockingIOError:
             written = 0
-        self.overrun += len(data) - written
         return len(data) - written
 
     def start(self) -> PtyServer:
