@@ -155,7 +155,8 @@ def test_driver_talks_to_a_drive_over_a_port():
     from hardware.emulators.dpralte import DpralteBusEmulator
 
     with PtyServer(DpralteBusEmulator()) as server:
-        drive = dpralte.DpralteDrive(server.path, 0x3F, velocity_offset=0x02, timeout=1.0)
+        # a hang guard: the emulator's thread may be kept off a loaded machine's CPU for a while
+        drive = dpralte.DpralteDrive(server.path, 0x3F, velocity_offset=0x02, timeout=10.0)
         with pytest.raises(DeviceError, match="no write access") as info:
             drive.enable()
         assert info.value.code == 6

@@ -34,6 +34,11 @@ from kit.drivers import (
     rplidar,
 )
 
+# A happy path's replies over a pseudo-terminal are awaited for up to REPLY s, not the
+# devices' own 0.1-1 s: the emulator's thread can be kept off a loaded machine's CPU for
+# longer than a device takes (tests of the time-outs pass their own).
+REPLY = 10.0
+
 
 def exchange(device, request: bytes, after: float = 1.0, at: float = 0.0) -> bytes:
     """Feed one request at ``at`` and collect everything sent by ``at + after``."""
@@ -558,9 +563,10 @@ def test_a_port_closed_mid_stream_is_a_clear_error(name):
 
 def test_a_pseudo_terminal_whose_emulator_stops_is_an_error_not_a_hang():
     server = PtyServer(RPLidarEmulator()).start()
-    lidar = rplidar.RPLidar(server.path, timeout=0.5)
+    lidar = rplidar.RPLidar(server.path, timeout=REPLY)
     lidar.start()
     lidar.read_scan()
+    lidar.timeout = 0.5
     server.stop()
     with pytest.raises((ProtocolError, DeviceTimeout)):
         for _ in range(10):
@@ -573,7 +579,7 @@ def test_what_a_host_that_stops_reading_cannot_take_is_counted_as_lost():
     ``overrun`` sums them). Waited for by count, not by time (the wait only guards a hang)."""
     device = RPLidarEmulator()
     with PtyServer([ODriveEmulator(), device]) as server:
-        lidar = rplidar.RPLidar(server.paths[1], timeout=0.5)
+        lidar = rplidar.RPLidar(server.paths[1], timeout=REPLY)
         lidar.start()
         for _ in range(3000):  # 30 s at most; the buffer fills within seconds at 115200
             if device.lost:
@@ -590,14 +596,14 @@ def test_what_a_host_that_stops_reading_cannot_take_is_counted_as_lost():
 def test_every_emulator_serves_its_driver_on_a_pseudo_terminal():
     devices = [ODriveEmulator(), BNO055Emulator(), RPLidarEmulator(), DpralteBusEmulator()]
     with PtyServer(devices) as server:
-        od = odrive.ODrive(server.paths[0])
+        od = odrive.ODrive(server.paths[0], timeout=REPLY)
         assert od.vbus_voltage() == pytest.approx(12.1)
-        imu = bno055.BNO055(server.paths[1])
+        imu = bno055.BNO055(server.paths[1], timeout=REPLY)
         imu.begin()
         assert imu.yaw() == pytest.approx(0.0)
-        lidar = rplidar.RPLidar(server.paths[2])
+        lidar = rplidar.RPLidar(server.paths[2], timeout=REPLY)
         assert lidar.health() == (0, 0)
-        drive = dpralte.DpralteDrive(server.paths[3], 0x3F, timeout=0.5)
+        drive = dpralte.DpralteDrive(server.paths[3], 0x3F, timeout=REPLY)
         drive.get_write_access()
         assert drive.read_position() == 0
 
@@ -608,7 +614,7 @@ def test_the_command_line_prints_the_port_and_serves_until_stopped():
     try:
         path = proc.stdout.readline().strip()
         assert path.startswith("/dev/")
-        assert odrive.ODrive(path).vbus_voltage() == pytest.approx(12.1)
+        assert odrive.ODrive(path, timeout=REPLY).vbus_voltage() == pytest.approx(12.1)
     finally:
         proc.terminate()
         assert proc.wait(10) == 0
@@ -616,7 +622,7 @@ def test_the_command_line_prints_the_port_and_serves_until_stopped():
 
 def test_the_sick_emulator_switches_baud_on_a_real_pseudo_terminal():
     with PtyServer(LMS2xxEmulator()) as server:
-        scanner = lms2xx.LMS2xx(server.path, timeout=0.5)
+        scanner = lms2xx.LMS2xx(server.path, timeout=REPLY)
         scanner.connect(38400, 180, 1.0)
         assert server.device.baudrate == 38400 and scanner.link.port.baudrate == 38400
         scanner.start()

@@ -40,7 +40,7 @@ def test_the_command_line_replays_a_capture_to_the_driver(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "hardware.emulators", "rplidar",
                              "--replay", str(capture)], stdout=subprocess.PIPE, text=True)
     try:
-        lidar = rplidar.RPLidar(proc.stdout.readline().strip(), timeout=1.0)
+        lidar = rplidar.RPLidar(proc.stdout.readline().strip(), timeout=10.0)  # a hang guard
         lidar.start()
         assert [len(lidar.read_revolution()) for _ in range(2)] == [300, 300]
         lidar.close()

@@ -18,6 +18,11 @@ from hardware.emulators.rplidar import RPLidarEmulator
 from kit.drivers import DeviceTimeout, bno055, dpralte, lms2xx, odrive, os5000, rplidar
 from kit.drivers.bases import IgvBase, UiabotBase
 
+# A happy path's replies are awaited for up to REPLY s, not the devices' own 0.1-1 s: the
+# emulator's thread can be kept off a loaded machine's CPU for longer than a device takes
+# (tests of the time-outs pass their own).
+REPLY = 10.0
+
 
 def leave(path: str, leftover: bytes, baudrate: int = 115200) -> None:
     """An earlier program: it opens the port, sends part of a request and is gone."""
@@ -30,9 +35,9 @@ def leave(path: str, leftover: bytes, baudrate: int = 115200) -> None:
 def test_the_odrive_connects_after_a_leftover_partial_line(leftover):
     with PtyServer(ODriveEmulator(calibration_time=0.2, vbus_voltage=24.0)) as server:
         leave(server.path, leftover)
-        assert odrive.ODrive(server.path).connect() == pytest.approx(24.0)
+        assert odrive.ODrive(server.path, timeout=REPLY).connect() == pytest.approx(24.0)
         leave(server.path, leftover)
-        with UiabotBase(server.path) as base:
+        with UiabotBase(odrive.ODrive(server.path, timeout=REPLY)) as base:
             base.bring_up()  # the issue's case: no retry needed by the caller
             assert [s for s, _ in base.steps_done] == ["connect", "calibrate", "closed loop"]
 
@@ -54,7 +59,7 @@ def test_the_igv_drives_connect_after_a_leftover_partial_frame(leftover):
         leftover = leftover + dpralte.crc16_xmodem(leftover).to_bytes(2, "big")
     with PtyServer(DpralteBusEmulator()) as server:
         leave(server.path, leftover)
-        with IgvBase(server.path) as base:
+        with IgvBase(server.path, timeout=REPLY) as base:
             base.start()
             assert all(d.enabled for d in server.device.drives.values())
 
@@ -72,7 +77,9 @@ def test_a_leftover_dpralte_header_swallows_a_request_sent_without_clearing():
 def test_the_bno055_begins_after_a_leftover_partial_frame(leftover):
     with PtyServer(BNO055Emulator()) as server:
         leave(server.path, leftover)
-        imu = bno055.BNO055(server.path)
+        # the leftover can swallow the first request, whose reply is then awaited in vain:
+        # 1 s, not REPLY (the second try is the one that must get through)
+        imu = bno055.BNO055(server.path, timeout=1.0)
         imu.begin()
         assert imu.read_imu().linear_acceleration.z == pytest.approx(9.81, abs=0.01)
 
@@ -82,7 +89,7 @@ def test_the_bno055_begins_after_a_leftover_partial_frame(leftover):
 def test_the_rplidar_starts_after_a_leftover_partial_request(leftover):
     with PtyServer(RPLidarEmulator()) as server:
         leave(server.path, leftover)
-        lidar = rplidar.RPLidar(server.path)
+        lidar = rplidar.RPLidar(server.path, timeout=REPLY)
         lidar.start()
         assert len(lidar.read_revolution()) > 300
         lidar.stop()
@@ -99,7 +106,7 @@ def test_a_leftover_rplidar_request_swallows_a_request_sent_without_clearing():
 def test_the_lms2xx_connects_after_a_leftover_partial_telegram():
     with PtyServer(LMS2xxEmulator()) as server:
         leave(server.path, bytes.fromhex("02000A0020"), 9600)
-        scanner = lms2xx.LMS2xx(server.path)
+        scanner = lms2xx.LMS2xx(server.path, timeout=REPLY)
         scanner.connect(38400, 180, 1.0)
         scanner.start()
         assert len(scanner.read_scan().ranges) == 181
@@ -111,7 +118,7 @@ def test_the_os5000_takes_its_first_command_after_a_leftover_partial_one():
     next one instead of taking its digits."""
     with PtyServer(Os5000Emulator()) as server:
         leave(server.path, b"\x1bR2", 19200)
-        compass = os5000.Os5000(server.path)
+        compass = os5000.Os5000(server.path, timeout=REPLY)
         compass.set_rate(10)
         compass.read()
         assert server.device.rate == 10.0

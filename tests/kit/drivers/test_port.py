@@ -20,6 +20,11 @@ from kit.drivers import DeviceTimeout, PortError, ProtocolError, bno055, odrive,
 from kit.drivers.bases import IgvBase, UiabotBase
 from kit.drivers.port import Link, wall_clock, wall_clock_for
 
+# A happy path's replies are awaited for up to REPLY s, not the devices' own 0.1-1 s: the
+# emulator's thread can be kept off a loaded machine's CPU for longer than a device takes
+# (tests of the time-outs pass their own).
+REPLY = 10.0
+
 
 class _Unplugged:
     """A port whose adapter is gone: what pyserial raises on Linux then."""
@@ -120,7 +125,7 @@ def test_stamps_are_wall_clock_on_a_real_port_and_logical_on_an_emulator():
     clock = Clock(start=3.0)
     assert wall_clock_for(clock) is clock
     with PtyServer(BNO055Emulator()) as server:
-        imu = bno055.BNO055(server.path)
+        imu = bno055.BNO055(server.path, timeout=REPLY)
         imu.begin()
         before = time.time()
         stamp = imu.read_imu().header.stamp.to_sec()
@@ -139,7 +144,7 @@ def test_a_second_opener_is_told_the_port_is_busy_and_by_whom():
     from hardware.emulators.odrive import ODriveEmulator
 
     with PtyServer(ODriveEmulator(vbus_voltage=24.0)) as server:
-        first = odrive.ODrive(server.path)
+        first = odrive.ODrive(server.path, timeout=REPLY)
         assert first.vbus_voltage() == pytest.approx(24.0)
         with pytest.raises(PortError, match=rf"ODrive: cannot open '{server.path}' at 115200 "
                                             rf"baud: the port is busy \(held by PID "
@@ -152,7 +157,7 @@ def test_a_second_opener_is_told_the_port_is_busy_and_by_whom():
             rplidar.RPLidar(server.path)
         assert first.vbus_voltage() == pytest.approx(24.0)  # the holder goes on
         first.close()
-        second = odrive.ODrive(server.path)  # free again once closed
+        second = odrive.ODrive(server.path, timeout=REPLY)  # free again once closed
         assert second.vbus_voltage() == pytest.approx(24.0)
         second.close()
 
@@ -163,8 +168,9 @@ def test_a_port_held_by_another_program_names_that_process():
 
     from hardware.emulators.odrive import ODriveEmulator
 
-    holder = "import sys, time\nfrom kit.drivers import odrive\nd = odrive.ODrive(sys.argv[1])" \
-             "\nprint(d.vbus_voltage(), flush=True)\ntime.sleep(600)\n"
+    holder = "import sys, time\nfrom kit.drivers import odrive\n" \
+             f"d = odrive.ODrive(sys.argv[1], timeout={REPLY})\n" \
+             "print(d.vbus_voltage(), flush=True)\ntime.sleep(600)\n"
     with PtyServer(ODriveEmulator(vbus_voltage=24.0)) as server:
         proc = subprocess.Popen([sys.executable, "-c", holder, server.path],
                                 stdout=subprocess.PIPE, text=True)

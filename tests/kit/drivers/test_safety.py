@@ -237,8 +237,10 @@ def test_a_held_command_is_dropped_after_hold_seconds():
     server, wheels, device = serve("uiabot")
     try:
         from kit.drivers.bases import UiabotBase
+        from kit.drivers.odrive import ODrive
 
-        with UiabotBase(server.path, watchdog_timeout=5.0, hold=0.3) as base:
+        with UiabotBase(ODrive(server.path, timeout=REPLY), watchdog_timeout=5.0,
+                        hold=0.3) as base:
             base.bring_up()
             base.drive((0.2, 0.0))
             until(lambda: all(s != 0.0 for s in wheels.speeds), "the wheels turning")
