@@ -394,7 +394,7 @@ class Slam:
         if not points:
             return None
         ref = sm.PointCloudReference(np.vstack(points), self.config.icp, np.vstack(normals))
-        return ref if ref.tree is not None else None
+        return ref if len(ref.points) else None
 
     def _insert_free(self, index: int) -> None:
         """Node ``index``'s beams into the free space (its moving returns only clear)."""

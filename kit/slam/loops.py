@@ -158,7 +158,7 @@ def match_loop(record: LoopClosure, source: FloatArray, reference: FloatArray | 
         record.reason = f"variance {spread:.3f} m² > {cfg.loop_max_variance}"
         return None
     ref = loop_ref.icp()
-    if ref.tree is None:
+    if len(ref.points) == 0:
         record.reason = "no reference surfaces"
         return None
     fine = sm.icp(source, ref, coarse.pose)

@@ -25,6 +25,7 @@ Poses are ``T_reference_source``: the source scan's frame in the reference frame
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -141,8 +142,6 @@ class PointCloudReference:
     """Unit normals of ``points``, estimated from them when not given."""
 
     def __post_init__(self) -> None:
-        from scipy.spatial import cKDTree
-
         pts = _check_points(self.points, "reference points")
         if self.normals is None:
             normals, usable = estimate_normals(pts, self.config.neighbours,
@@ -155,7 +154,59 @@ class PointCloudReference:
                                  f"{normals.shape}")
         self.points = pts
         self.normals = normals
-        self.tree = cKDTree(self.points) if len(self.points) else None
+        self._tree: Any = None
+        self._buckets: _Buckets | None = None
+
+    @property
+    def tree(self) -> Any:
+        """A ``scipy.spatial.cKDTree`` of ``points`` (``None`` when there are none), built
+        when first asked for: ICP itself searches :meth:`buckets`."""
+        if self._tree is None and len(self.points):
+            from scipy.spatial import cKDTree
+
+            self._tree = cKDTree(self.points)
+        return self._tree
+
+    def buckets(self) -> _Buckets:
+        """The points sorted into square cells, for ICP's nearest-neighbour search."""
+        if self._buckets is None:
+            self._buckets = _Buckets.of(self.points, self.config.max_distance)
+        return self._buckets
+
+
+@dataclass(frozen=True)
+class _Buckets:
+    """Reference points sorted by the square cell of side ``cell`` they fall in: cell
+    ``(i, j)`` (column ``i`` from ``origin[0]``, row ``j`` from ``origin[1]``) holds the
+    points ``order[start[j * width + i]:start[j * width + i + 1]]``, in index order."""
+
+    origin: FloatArray
+    cell: float
+    width: int
+    height: int
+    start: NDArray[np.int64]
+    order: NDArray[np.int64]
+
+    MAX_CELLS = 1 << 22
+    """A reference spread so wide that cells of a quarter of ``max_distance`` would number
+    more than this gets wider cells (the search is exact for any cell size)."""
+
+    @classmethod
+    def of(cls, points: FloatArray, max_distance: float) -> _Buckets:
+        lo = points.min(axis=0)
+        span = points.max(axis=0) - lo
+        cell = max_distance / 4.0
+        count = (span[0] / cell + 1.0) * (span[1] / cell + 1.0)
+        if count > cls.MAX_CELLS:
+            cell *= math.sqrt(count / cls.MAX_CELLS)
+        width, height = int(span[0] // cell) + 1, int(span[1] // cell) + 1
+        ix = np.minimum(np.floor((points[:, 0] - lo[0]) / cell), width - 1).astype(np.int64)
+        iy = np.minimum(np.floor((points[:, 1] - lo[1]) / cell), height - 1).astype(np.int64)
+        key = iy * width + ix
+        order = np.argsort(key, kind="stable").astype(np.int64)
+        start = np.zeros(width * height + 1, dtype=np.int64)
+        np.cumsum(np.bincount(key, minlength=width * height), out=start[1:])
+        return cls(lo.astype(np.float64), float(cell), width, height, start, order)
 
 
 def _pairs(source: FloatArray, ref: PointCloudReference, pose: FloatArray, cfg: IcpConfig
@@ -257,31 +308,23 @@ def icp(source: ArrayLike, reference: PointCloudReference | ArrayLike, initial: 
     prior = x0.copy() if prior_information is not None else None
     omega = None if prior_information is None else \
         np.asarray(prior_information, dtype=np.float64)
-    if ref.tree is None or len(src) < 3:
+    if len(ref.points) == 0 or len(src) < 3:
         return MatchResult(x0, _fallback_covariance(omega), False)
-    x: FloatArray = x0
-    H: FloatArray = np.zeros((3, 3))
-    r: FloatArray = np.zeros(0)
-    converged, it = False, 0
-    for it in range(1, cfg.max_iterations + 1):  # noqa: B007 - reported
-        new, H, r = icp_iteration(src, ref, x, prior, omega)
-        moved = max(abs(new[0] - x[0]), abs(new[1] - x[1]),
-                    abs(float(geometry.wrap_angle(new[2] - x[2]))))
-        x = new
-        if len(r) < 3:
-            break
-        if moved < cfg.tolerance:
-            converged = True
-            break
-    _, H, r = icp_iteration(src, ref, x, prior, omega)
-    dof = max(len(r) - 3, 1)
-    s2 = max(float(r @ r) / dof, cfg.sigma**2)
+    b = ref.buckets()
+    assert ref.normals is not None
+    x, H, kept, squares, converged, it = _compiled_icp()(
+        src, ref.points, ref.normals, b.origin, b.cell, b.width, b.height, b.start, b.order,
+        x0, prior is not None, x0 if prior is None else prior,
+        np.zeros((3, 3)) if omega is None else np.array(omega, dtype=np.float64),
+        cfg.max_iterations, cfg.max_distance, cfg.trim, cfg.sigma, cfg.tolerance)
+    dof = max(kept - 3, 1)
+    s2 = max(squares / dof, cfg.sigma**2)
     info = H * (cfg.sigma**2 / s2)
     if omega is not None:
         info = info + omega
     covariance = _inverse(info)
-    return MatchResult(x, covariance, converged and len(r) >= 3, it, len(r) / len(src),
-                       math.sqrt(float(r @ r) / max(len(r), 1)))
+    return MatchResult(x, covariance, converged and kept >= 3, it, kept / len(src),
+                       math.sqrt(squares / max(kept, 1)))
 
 
 def _inverse(info: FloatArray) -> FloatArray:
@@ -296,3 +339,153 @@ def _inverse(info: FloatArray) -> FloatArray:
 
 def _fallback_covariance(omega: FloatArray | None) -> FloatArray:
     return _inverse(omega) if omega is not None else np.diag([1e6, 1e6, 1e3])
+
+
+# ----------------------------------------------------------------------------- compiled ICP
+# icp()'s loop as icp_iteration() steps it, compiled: the nearest reference point of each
+# source point is searched among the reference's buckets (exactly the k-d tree's answer, the
+# first found of equally near points aside) and the trimmed pairs' normal equations are summed
+# point by point, so a result differs from icp_iteration()'s only by rounding.
+
+def _nearest_python(qx: float, qy: float, points: FloatArray, origin: FloatArray, cell: float,
+                    width: int, height: int, start: NDArray[np.int64],
+                    order: NDArray[np.int64], bound: float) -> int:
+    # pragma: no cover - compiled by numba
+    """The index of the reference point nearest ``(qx, qy)`` closer than ``bound``, or -1:
+    the cells in rings around the query's cell, nearest ring first, until no farther ring
+    can hold a nearer point (ring ``k + 1`` lies at least ``k · cell`` away)."""
+    gx, gy = (qx - origin[0]) / cell, (qy - origin[1]) / cell
+    if not (abs(gx) < 2.0**52 and abs(gy) < 2.0**52):
+        return -1                     # NaN, or too far for any cell (and for an integer)
+    cx, cy = math.floor(gx), math.floor(gy)
+    best, best_d2 = -1, bound * bound
+    k = 0
+    while True:
+        for j in range(max(cy - k, 0), min(cy + k, height - 1) + 1):
+            edge = j == cy - k or j == cy + k
+            step = 1 if edge or k == 0 else 2 * k
+            for i in range(cx - k, cx + k + 1, step):
+                if i < 0 or i >= width:
+                    continue
+                c = j * width + i
+                for s in range(start[c], start[c + 1]):
+                    m = order[s]
+                    dx, dy = points[m, 0] - qx, points[m, 1] - qy
+                    d2 = dx * dx + dy * dy
+                    if d2 < best_d2 or (d2 == best_d2 and 0 <= best and m < best):
+                        best, best_d2 = m, d2
+        reach = k * cell
+        if (best >= 0 and best_d2 <= reach * reach) or reach >= bound:
+            return best
+        k += 1
+
+
+def _wrap_python(a: float) -> float:
+    # pragma: no cover - compiled by numba
+    """:func:`kit.geometry.wrap_angle` of a float, in the same arithmetic."""
+    w = (a + math.pi) % (2.0 * math.pi) - math.pi
+    return w - 2.0 * math.pi if w >= math.pi else w
+
+
+def _normal_equations_python(src: FloatArray, points: FloatArray, normals: FloatArray,
+                             origin: FloatArray, cell: float, width: int, height: int,
+                             start: NDArray[np.int64], order: NDArray[np.int64], x: FloatArray,
+                             max_distance: float, trim: float, sigma: float
+                             ) -> tuple[FloatArray, FloatArray, int, float]:
+    # pragma: no cover - compiled by numba
+    """:func:`_pairs` and the sums of :func:`icp_iteration` at pose ``x``: ``(H, Jᵀr/σ²,
+    pairs kept, sum of their squared residuals)``."""
+    c, s = math.cos(x[2]), math.sin(x[2])
+    n = len(src)
+    q = np.empty((n, 2))
+    nearest = np.empty(n, dtype=np.int64)
+    r = np.empty(n)
+    found = 0
+    for k in range(n):
+        qx = src[k, 0] * c - src[k, 1] * s + x[0]
+        qy = src[k, 0] * s + src[k, 1] * c + x[1]
+        m = _nearest(qx, qy, points, origin, cell, width, height, start, order, max_distance)
+        if m >= 0:
+            q[found, 0], q[found, 1], nearest[found] = qx, qy, m
+            r[found] = normals[m, 0] * (qx - points[m, 0]) + normals[m, 1] * (qy - points[m, 1])
+            found += 1
+    keep = max(3, math.ceil(trim * found))
+    # the ``keep`` smallest |r| (argpartition's choice, ties at the threshold aside)
+    threshold, spare = np.inf, found
+    if keep < found:
+        threshold = np.sort(np.abs(r[:found]))[keep - 1]
+        spare = keep - int(np.sum(np.abs(r[:found]) < threshold))
+    H, g = np.zeros((3, 3)), np.zeros(3)
+    kept, squares = 0, 0.0
+    for k in range(found):
+        a = abs(r[k])
+        if a > threshold or (a == threshold and spare == 0):
+            continue
+        if a == threshold:
+            spare -= 1
+        m = nearest[k]
+        j = (normals[m, 0], normals[m, 1],
+             -normals[m, 0] * (q[k, 1] - x[1]) + normals[m, 1] * (q[k, 0] - x[0]))
+        for u in range(3):
+            g[u] += j[u] * r[k]
+            for v in range(3):
+                H[u, v] += j[u] * j[v]
+        kept += 1
+        squares += r[k] * r[k]
+    w = 1.0 / sigma**2
+    return w * H, w * g, kept, squares
+
+
+def _icp_python(src: FloatArray, points: FloatArray, normals: FloatArray, origin: FloatArray,
+                cell: float, width: int, height: int, start: NDArray[np.int64],
+                order: NDArray[np.int64], x0: FloatArray, has_prior: bool, prior: FloatArray,
+                omega: FloatArray, max_iterations: int, max_distance: float, trim: float,
+                sigma: float, tolerance: float
+                ) -> tuple[FloatArray, FloatArray, int, float, bool, int]:
+    # pragma: no cover - compiled by numba
+    """:func:`icp`'s Gauss–Newton loop: ``(pose, H, pairs kept, sum of their squared
+    residuals, converged, iterations)``, ``H`` and the pairs evaluated at the pose."""
+    x = x0.copy()
+    converged, it = False, 0
+    for it in range(1, max_iterations + 1):  # noqa: B007 - reported
+        H, g, kept, _ = _normal_equations(src, points, normals, origin, cell, width, height,
+                                          start, order, x, max_distance, trim, sigma)
+        A = H
+        if has_prior:
+            d = x - prior
+            d[2] = _wrap(d[2])
+            A = H + omega
+            g = g + omega @ d
+        try:
+            step = -np.linalg.solve(A, g)
+        except Exception:  # a singular system (numba names no LinAlgError)
+            step = -np.linalg.lstsq(A, g, 3 * np.finfo(np.float64).eps)[0]
+        new = x + step
+        new[2] = _wrap(new[2])
+        moved = max(abs(new[0] - x[0]), abs(new[1] - x[1]), abs(_wrap(new[2] - x[2])))
+        x = new
+        if kept < 3:
+            break
+        if moved < tolerance:
+            converged = True
+            break
+    H, _, kept, squares = _normal_equations(src, points, normals, origin, cell, width, height,
+                                            start, order, x, max_distance, trim, sigma)
+    return x, H, kept, squares, converged, it
+
+
+_nearest, _wrap, _normal_equations = _nearest_python, _wrap_python, _normal_equations_python
+_COMPILED: list = []
+
+
+def _compiled_icp() -> Callable[..., tuple[FloatArray, FloatArray, int, float, bool, int]]:
+    """:func:`_icp_python` compiled once (``cache=True``: later sessions load it)."""
+    global _nearest, _wrap, _normal_equations
+    if not _COMPILED:
+        import numba
+
+        jit = numba.njit(cache=True, nogil=True)
+        _nearest, _wrap = jit(_nearest_python), jit(_wrap_python)
+        _normal_equations = jit(_normal_equations_python)
+        _COMPILED.append(jit(_icp_python))
+    return _COMPILED[0]

@@ -95,6 +95,74 @@ def test_in_a_corridor_the_prior_holds_the_unobservable_direction():
     assert sd[0] > 0.05 > 10 * sd[1]                    # and the covariance says so
 
 
+def stepped_icp(source, ref, initial, omega=None):
+    """:func:`sm.icp`'s loop written with :func:`sm.icp_iteration` (numpy, the k-d tree):
+    ``(pose, H, pairs, sum of squared residuals, iterations)``."""
+    prior = np.array(initial, float) if omega is not None else None
+    x = np.array(initial, float)
+    for it in range(1, ref.config.max_iterations + 1):  # noqa: B007
+        new, _, r = sm.icp_iteration(source, ref, x, prior, omega)
+        moved = max(abs(new[0] - x[0]), abs(new[1] - x[1]),
+                    abs(float(geometry.wrap_angle(new[2] - x[2]))))
+        x = new
+        if len(r) < 3 or moved < ref.config.tolerance:
+            break
+    _, H, r = sm.icp_iteration(source, ref, x, prior, omega)
+    return x, H, len(r), float(r @ r), it
+
+
+def test_the_buckets_find_the_k_d_trees_nearest_point_within_the_bound(monkeypatch):
+    """ICP's nearest-neighbour search gives scipy's cKDTree answer, for queries on the
+    points, near them, beyond the reference's extent and far away, and with the cells
+    widened for a reference spread too wide for the usual cell count."""
+    from scipy.spatial import cKDTree
+
+    sm._compiled_icp()
+    rng = np.random.default_rng(7)
+    for trial in range(12):
+        if trial == 8:
+            monkeypatch.setattr(sm._Buckets, "MAX_CELLS", 50)
+        points = rng.uniform(-5, 5, (int(rng.integers(1, 2500)), 2)) * rng.uniform(0.05, 4)
+        queries = rng.uniform(-30, 30, (1500, 2))
+        queries[:1000] = points[rng.integers(0, len(points), 1000)] + \
+            rng.normal(0, 0.3, (1000, 2))
+        bound = float(rng.choice([0.1, 0.5, 2.0]))
+        b = sm._Buckets.of(points, bound)
+        d, idx = cKDTree(points).query(queries, k=1, distance_upper_bound=bound)
+        found = [sm._nearest(x, y, points, b.origin, b.cell, b.width, b.height, b.start,
+                             b.order, bound) for x, y in queries]
+        assert np.array_equal(found, np.where(d < np.inf, idx, -1)), trial
+    assert b.width * b.height <= 2 * 50
+    for x, y in [(np.nan, 0.0), (0.0, np.inf), (1e300, 0.0), (-1e20, 5.0)]:  # a wild pose
+        assert sm._nearest(x, y, points, b.origin, b.cell, b.width, b.height, b.start,
+                           b.order, bound) == -1
+
+
+@pytest.mark.parametrize("prior", [False, True])
+def test_compiled_icp_takes_icp_iterations_steps_to_rounding(prior):
+    """The compiled loop lands where stepping :func:`sm.icp_iteration` lands, after as
+    many iterations, with as many pairs and the same residuals (to rounding), from near and
+    far starts, in clutter, and with nothing to pair with."""
+    rng = np.random.default_rng(3)
+    reference = walls(ROOM)
+    omega = sm.ODOMETRY_PRIOR if prior else None
+    for trial in range(40):
+        truth = np.array([rng.uniform(1, 5), rng.uniform(0.5, 3.5), rng.uniform(-3, 3)])
+        source = seen_from(reference, truth, rng, noise=0.01)
+        if trial % 4 == 1:
+            source = np.vstack([source, rng.uniform(-1, 1, (len(source) // 5, 2))])
+        if trial % 10 == 9:
+            source = source[:5] + 50.0       # nothing pairs: a singular system, no step
+        ref = sm.PointCloudReference(reference, sm.IcpConfig(trim=[0.9, 0.7][trial % 2]))
+        start = truth + rng.normal(0, [0.15, 0.15, 0.08])
+        result = sm.icp(source, ref, start, omega)
+        x, H, pairs, squares, iterations = stepped_icp(source, ref, start, omega)
+        assert result.iterations == iterations, trial
+        assert np.allclose(result.pose, x, rtol=0, atol=1e-9), trial
+        assert round(result.inlier_fraction * len(source)) == pairs, trial
+        assert result.rmse == pytest.approx(np.sqrt(squares / max(pairs, 1)), rel=1e-9)
+
+
 def test_bad_input_is_rejected():
     with pytest.raises(ValueError, match=r"shape \(M, 2\)"):
         sm.icp(np.zeros((5, 3)), walls(ROOM), [0, 0, 0])
