@@ -141,8 +141,8 @@ def test_the_buckets_find_the_k_d_trees_nearest_point_within_the_bound(monkeypat
 @pytest.mark.parametrize("prior", [False, True])
 def test_compiled_icp_takes_icp_iterations_steps_to_rounding(prior):
     """The compiled loop lands where stepping :func:`sm.icp_iteration` lands, after as
-    many iterations, with as many pairs and the same residuals (to rounding), from near and
-    far starts, in clutter, and with nothing to pair with."""
+    many iterations, with as many pairs, the same residuals and the same covariance (to
+    rounding), from near and far starts, in clutter, and with nothing to pair with."""
     rng = np.random.default_rng(3)
     reference = walls(ROOM)
     omega = sm.ODOMETRY_PRIOR if prior else None
@@ -161,6 +161,10 @@ def test_compiled_icp_takes_icp_iterations_steps_to_rounding(prior):
         assert np.allclose(result.pose, x, rtol=0, atol=1e-9), trial
         assert round(result.inlier_fraction * len(source)) == pairs, trial
         assert result.rmse == pytest.approx(np.sqrt(squares / max(pairs, 1)), rel=1e-9)
+        sigma2 = ref.config.sigma**2
+        info = H * (sigma2 / max(squares / max(pairs - 3, 1), sigma2))
+        covariance = sm._inverse(info if omega is None else info + omega)
+        assert np.allclose(result.covariance, covariance, rtol=1e-6, atol=1e-15), trial
 
 
 def test_bad_input_is_rejected():
