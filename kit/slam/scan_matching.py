@@ -305,17 +305,15 @@ def icp(source: ArrayLike, reference: PointCloudReference | ArrayLike, initial: 
     if config is not None and config != ref.config:
         ref = PointCloudReference(ref.points, config)
     x0 = geometry.check_pose(initial, "initial")
-    prior = x0.copy() if prior_information is not None else None
     omega = None if prior_information is None else \
-        np.asarray(prior_information, dtype=np.float64)
+        np.array(prior_information, dtype=np.float64)
     if len(ref.points) == 0 or len(src) < 3:
         return MatchResult(x0, _fallback_covariance(omega), False)
     b = ref.buckets()
     assert ref.normals is not None
     x, H, kept, squares, converged, it = _compiled_icp()(
         src, ref.points, ref.normals, b.origin, b.cell, b.width, b.height, b.start, b.order,
-        x0, prior is not None, x0 if prior is None else prior,
-        np.zeros((3, 3)) if omega is None else np.array(omega, dtype=np.float64),
+        x0, omega is not None, np.zeros((3, 3)) if omega is None else omega,
         cfg.max_iterations, cfg.max_distance, cfg.trim, cfg.sigma, cfg.tolerance)
     dof = max(kept - 3, 1)
     s2 = max(squares / dof, cfg.sigma**2)
@@ -413,8 +411,9 @@ def _normal_equations_python(src: FloatArray, points: FloatArray, normals: Float
     # the ``keep`` smallest |r| (argpartition's choice, ties at the threshold aside)
     threshold, spare = np.inf, found
     if keep < found:
-        threshold = np.sort(np.abs(r[:found]))[keep - 1]
-        spare = keep - int(np.sum(np.abs(r[:found]) < threshold))
+        size = np.abs(r[:found])
+        threshold = np.sort(size)[keep - 1]
+        spare = keep - int(np.sum(size < threshold))
     H, g = np.zeros((3, 3)), np.zeros(3)
     kept, squares = 0, 0.0
     for k in range(found):
@@ -438,13 +437,13 @@ def _normal_equations_python(src: FloatArray, points: FloatArray, normals: Float
 
 def _icp_python(src: FloatArray, points: FloatArray, normals: FloatArray, origin: FloatArray,
                 cell: float, width: int, height: int, start: NDArray[np.int64],
-                order: NDArray[np.int64], x0: FloatArray, has_prior: bool, prior: FloatArray,
-                omega: FloatArray, max_iterations: int, max_distance: float, trim: float,
-                sigma: float, tolerance: float
-                ) -> tuple[FloatArray, FloatArray, int, float, bool, int]:
+                order: NDArray[np.int64], x0: FloatArray, has_prior: bool, omega: FloatArray,
+                max_iterations: int, max_distance: float, trim: float, sigma: float,
+                tolerance: float) -> tuple[FloatArray, FloatArray, int, float, bool, int]:
     # pragma: no cover - compiled by numba
-    """:func:`icp`'s Gauss–Newton loop: ``(pose, H, pairs kept, sum of their squared
-    residuals, converged, iterations)``, ``H`` and the pairs evaluated at the pose."""
+    """:func:`icp`'s Gauss–Newton loop from ``x0``, held there with information ``omega``
+    when ``has_prior``: ``(pose, H, pairs kept, sum of their squared residuals, converged,
+    iterations)``, ``H`` and the pairs evaluated at the pose."""
     x = x0.copy()
     converged, it = False, 0
     for it in range(1, max_iterations + 1):  # noqa: B007 - reported
@@ -452,7 +451,7 @@ def _icp_python(src: FloatArray, points: FloatArray, normals: FloatArray, origin
                                           start, order, x, max_distance, trim, sigma)
         A = H
         if has_prior:
-            d = x - prior
+            d = x - x0
             d[2] = _wrap(d[2])
             A = H + omega
             g = g + omega @ d
