@@ -307,14 +307,24 @@ def icp(source: ArrayLike, reference: PointCloudReference | ArrayLike, initial: 
     x0 = geometry.check_pose(initial, "initial")
     omega = None if prior_information is None else \
         np.array(prior_information, dtype=np.float64)
+    if omega is not None and (omega.shape != (3, 3) or not np.all(np.isfinite(omega))):
+        raise ValueError(f"prior_information must be a finite 3 × 3 matrix, got {omega!r}")
     if len(ref.points) == 0 or len(src) < 3:
         return MatchResult(x0, _fallback_covariance(omega), False)
     b = ref.buckets()
     assert ref.normals is not None
-    x, H, kept, squares, converged, it = _compiled_icp()(
-        src, ref.points, ref.normals, b.origin, b.cell, b.width, b.height, b.start, b.order,
-        x0, omega is not None, np.zeros((3, 3)) if omega is None else omega,
-        cfg.max_iterations, cfg.max_distance, cfg.trim, cfg.sigma, cfg.tolerance)
+    loop = _compiled_icp()
+    x, it, step, kept = x0, 0, np.zeros(3, dtype=np.float64), 0
+    while True:
+        x, H, g, kept, squares, converged, it, singular = loop(
+            src, ref.points, ref.normals, b.origin, b.cell, b.width, b.height, b.start,
+            b.order, x0, omega is not None, np.zeros((3, 3)) if omega is None else omega,
+            cfg.max_iterations, cfg.max_distance, cfg.trim, cfg.sigma, cfg.tolerance, x, it,
+            step, kept)
+        if not singular:
+            break
+        step = -np.asarray(np.linalg.lstsq(H, g, rcond=3 * np.finfo(np.float64).eps)[0],
+                           dtype=np.float64)
     dof = max(kept - 3, 1)
     s2 = max(squares / dof, cfg.sigma**2)
     info = H * (cfg.sigma**2 / s2)
@@ -385,6 +395,62 @@ def _wrap_python(a: float) -> float:
     return w - 2.0 * math.pi if w >= math.pi else w
 
 
+def _smallest_python(values: FloatArray, k: int) -> float:
+    # pragma: no cover - compiled by numba
+    """The ``k``-th smallest of ``values`` (from 0; ``np.sort(values)[k]``), found by
+    partitioning ``values`` in place (numba compiles this far faster than its sort)."""
+    lo, hi = 0, len(values) - 1
+    while lo < hi:
+        pivot = values[(lo + hi) // 2]
+        i, j = lo, hi
+        while i <= j:
+            while values[i] < pivot:
+                i += 1
+            while values[j] > pivot:
+                j -= 1
+            if i <= j:
+                values[i], values[j] = values[j], values[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            break
+    return values[k]
+
+
+def _solve3_python(A: FloatArray, b: FloatArray) -> tuple[FloatArray, bool]:
+    # pragma: no cover - compiled by numba
+    """``A x = b`` for a 3 × 3 ``A`` by Gaussian elimination with partial pivoting, as
+    LAPACK's ``gesv`` (to rounding): ``(x, True)``, or ``(b, False)`` if a pivot is exactly
+    zero, where ``gesv`` reports a singular matrix."""
+    M, y = A.copy(), b.copy()
+    for c in range(3):
+        p = c
+        for r in range(c + 1, 3):
+            if abs(M[r, c]) > abs(M[p, c]):
+                p = r
+        if M[p, c] == 0.0:
+            return b, False
+        if p != c:
+            for k in range(3):
+                M[c, k], M[p, k] = M[p, k], M[c, k]
+            y[c], y[p] = y[p], y[c]
+        for r in range(c + 1, 3):
+            f = M[r, c] / M[c, c]
+            for k in range(c + 1, 3):
+                M[r, k] -= f * M[c, k]
+            y[r] -= f * y[c]
+    for c in range(2, -1, -1):
+        total = y[c]
+        for k in range(c + 1, 3):
+            total -= M[c, k] * y[k]
+        y[c] = total / M[c, c]
+    return y, True
+
+
 def _normal_equations_python(src: FloatArray, points: FloatArray, normals: FloatArray,
                              origin: FloatArray, cell: float, width: int, height: int,
                              start: NDArray[np.int64], order: NDArray[np.int64], x: FloatArray,
@@ -412,7 +478,7 @@ def _normal_equations_python(src: FloatArray, points: FloatArray, normals: Float
     threshold, spare = np.inf, found
     if keep < found:
         size = np.abs(r[:found])
-        threshold = np.sort(size)[keep - 1]
+        threshold = _smallest(size.copy(), keep - 1)
         spare = keep - int(np.sum(size < threshold))
     H, g = np.zeros((3, 3)), np.zeros(3)
     kept, squares = 0, 0.0
@@ -439,14 +505,33 @@ def _icp_python(src: FloatArray, points: FloatArray, normals: FloatArray, origin
                 cell: float, width: int, height: int, start: NDArray[np.int64],
                 order: NDArray[np.int64], x0: FloatArray, has_prior: bool, omega: FloatArray,
                 max_iterations: int, max_distance: float, trim: float, sigma: float,
-                tolerance: float) -> tuple[FloatArray, FloatArray, int, float, bool, int]:
+                tolerance: float, x: FloatArray, it: int, step: FloatArray, kept: int
+                ) -> tuple[FloatArray, FloatArray, FloatArray, int, float, bool, int, bool]:
     # pragma: no cover - compiled by numba
-    """:func:`icp`'s Gauss–Newton loop from ``x0``, held there with information ``omega``
-    when ``has_prior``: ``(pose, H, pairs kept, sum of their squared residuals, converged,
-    iterations)``, ``H`` and the pairs evaluated at the pose."""
-    x = x0.copy()
-    converged, it = False, 0
-    for it in range(1, max_iterations + 1):  # noqa: B007 - reported
+    """:func:`icp`'s Gauss–Newton loop, held at ``x0`` with information ``omega`` when
+    ``has_prior``: from ``x`` at iteration ``it`` (0: the start), whose ``step`` (found with
+    ``kept`` pairs) is still to be taken when ``it > 0``.
+
+    Returns ``(pose, H, g, pairs kept, sum of their squared residuals, converged,
+    iterations, singular)``, ``H`` and the pairs evaluated at the pose. If an iteration's
+    system is exactly singular the loop stops there instead, with ``singular`` true and
+    the system in ``H`` and ``g``: the caller solves it by least squares (numpy's, which
+    compiles slowly in numba) and resumes with that step."""
+    converged = False
+    while True:
+        if it > 0:
+            new = x + step
+            new[2] = _wrap(new[2])
+            moved = max(abs(new[0] - x[0]), abs(new[1] - x[1]), abs(_wrap(new[2] - x[2])))
+            x = new
+            if kept < 3:
+                break
+            if moved < tolerance:
+                converged = True
+                break
+        if it == max_iterations:
+            break
+        it += 1
         H, g, kept, _ = _normal_equations(src, points, normals, origin, cell, width, height,
                                           start, order, x, max_distance, trim, sigma)
         A = H
@@ -455,36 +540,30 @@ def _icp_python(src: FloatArray, points: FloatArray, normals: FloatArray, origin
             d[2] = _wrap(d[2])
             A = H + omega
             g = g + omega @ d
-        try:
-            step = -np.linalg.solve(A, g)
-        except Exception:  # a singular system (numba names no LinAlgError)
-            step = -np.linalg.lstsq(A, g, 3 * np.finfo(np.float64).eps)[0]
-        new = x + step
-        new[2] = _wrap(new[2])
-        moved = max(abs(new[0] - x[0]), abs(new[1] - x[1]), abs(_wrap(new[2] - x[2])))
-        x = new
-        if kept < 3:
-            break
-        if moved < tolerance:
-            converged = True
-            break
-    H, _, kept, squares = _normal_equations(src, points, normals, origin, cell, width, height,
+        step, solved = _solve3(A, g)
+        if not solved:
+            return x, A, g, kept, 0.0, False, it, True
+        step = -step
+    H, g, kept, squares = _normal_equations(src, points, normals, origin, cell, width, height,
                                             start, order, x, max_distance, trim, sigma)
-    return x, H, kept, squares, converged, it
+    return x, H, g, kept, squares, converged, it, False
 
 
 _nearest, _wrap, _normal_equations = _nearest_python, _wrap_python, _normal_equations_python
+_smallest, _solve3 = _smallest_python, _solve3_python
 _COMPILED: list = []
 
 
-def _compiled_icp() -> Callable[..., tuple[FloatArray, FloatArray, int, float, bool, int]]:
+def _compiled_icp() -> Callable[..., tuple[FloatArray, FloatArray, FloatArray, int, float, bool,
+                                            int, bool]]:
     """:func:`_icp_python` compiled once (``cache=True``: later sessions load it)."""
-    global _nearest, _wrap, _normal_equations
+    global _nearest, _wrap, _normal_equations, _smallest, _solve3
     if not _COMPILED:
         import numba
 
         jit = numba.njit(cache=True, nogil=True)
         _nearest, _wrap = jit(_nearest_python), jit(_wrap_python)
+        _smallest, _solve3 = jit(_smallest_python), jit(_solve3_python)
         _normal_equations = jit(_normal_equations_python)
         _COMPILED.append(jit(_icp_python))
     return _COMPILED[0]

@@ -172,6 +172,9 @@ def test_bad_input_is_rejected():
         sm.icp(np.zeros((5, 3)), walls(ROOM), [0, 0, 0])
     with pytest.raises(ValueError, match="NaN"):
         sm.icp(np.full((5, 2), np.nan), walls(ROOM), [0, 0, 0])
+    for omega in (np.full((3, 3), np.nan), np.eye(2)):
+        with pytest.raises(ValueError, match="finite 3 × 3"):
+            sm.icp(walls(ROOM)[::3], walls(ROOM), [0, 0, 0], omega)
     with pytest.raises(ValueError, match="trim"):
         sm.IcpConfig(trim=0.0)
     with pytest.raises(ValueError, match="at least one"):
@@ -313,3 +316,59 @@ def test_a_penalty_picks_the_pose_nearest_the_guess_where_a_corridor_cannot_tell
     assert result.pose[2] == pytest.approx(truth[2], abs=0.011)
     with pytest.raises(ValueError, match="penalty"):
         correlative.correlative_match(source, field, guess, penalty=1.0)
+
+
+def test_the_partition_picks_the_sorted_element_and_the_elimination_solves_as_lapack():
+    """ICP's two compiled helpers against numpy: the k-th smallest of arrays with ties is
+    ``np.sort``'s k-th element, for every k; a 3 × 3 system is solved as
+    ``np.linalg.solve`` solves it (to rounding), and the exactly singular ones that LAPACK
+    refuses are refused."""
+    sm._compiled_icp()
+    rng = np.random.default_rng(11)
+    for trial in range(60):
+        values = np.round(rng.exponential(1.0, int(rng.integers(1, 120))), trial % 3)
+        ranked = np.sort(values)
+        for k in range(len(values)):
+            assert sm._smallest(values.copy(), k) == ranked[k], (trial, k)
+    for trial in range(400):
+        A = rng.normal(0, 1, (3, 3)) * 10.0 ** rng.uniform(-2, 2, 3)
+        if trial % 2:
+            A = A @ A.T                                 # symmetric, as ICP's systems are
+        b = rng.normal(0, 1, 3)
+        x, solved = sm._solve3(A, b)
+        assert solved
+        # both backward stable: residuals at rounding, answers apart at most cond(A) · ε
+        eps, expected = np.finfo(np.float64).eps, np.linalg.solve(A, b)
+        assert np.linalg.norm(A @ x - b) <= 50 * eps * np.linalg.norm(A) * np.linalg.norm(x)
+        assert np.linalg.norm(x - expected) <= \
+            50 * eps * np.linalg.cond(A) * np.linalg.norm(expected), trial
+    singular = [np.zeros((3, 3)), np.array([[1.0, 2, 3], [1, 2, 3], [0, 1, 5]]),
+                np.array([[0.0, 2, 3], [0, 1, 4], [0, 7, 5]]),
+                np.array([[4.0, 0, 1], [0, 0, 0], [1, 0, 2]])]
+    for A in singular:
+        with pytest.raises(np.linalg.LinAlgError):
+            np.linalg.solve(A, np.ones(3))
+        assert not sm._solve3(A, np.ones(3))[1]
+
+
+def test_a_straight_wall_is_an_exactly_singular_system_solved_by_least_squares(monkeypatch):
+    """Along one straight wall nothing fixes the pose along the wall: each iteration's
+    system is exactly singular, and the compiled loop hands it to numpy's least squares
+    (the minimum-norm step, no slide along the wall), landing where icp_iteration's steps
+    land."""
+    calls = []
+    lstsq = np.linalg.lstsq
+    monkeypatch.setattr(np.linalg, "lstsq", lambda *a, **k: calls.append(1) or lstsq(*a, **k))
+    wall = np.column_stack([np.linspace(-4, 4, 161), np.zeros(161)])
+    ref = sm.PointCloudReference(wall)
+    truth = np.array([0.0, 0.3, 0.0])
+    source = geometry.transform_points(geometry.inverse(truth), wall[20:140])
+    start = [0.05, 0.2, 0.02]
+    result = sm.icp(source, ref, start)
+    compiled_calls = len(calls)
+    x, _, pairs, _, iterations = stepped_icp(source, ref, start, None)
+    assert compiled_calls >= 1 and len(calls) > compiled_calls
+    assert result.iterations == iterations
+    assert np.allclose(result.pose, x, rtol=0, atol=1e-9)
+    assert abs(result.pose[1] - 0.3) < 1e-6 and abs(result.pose[2]) < 1e-9
+    assert round(result.inlier_fraction * len(source)) == pairs
