@@ -18,7 +18,7 @@ relations (what issue 29's bars hold) and the run's CPU time (``process_time``).
 
 Run it on two versions of the code and compare (``--save FILE`` writes the lines,
 ``--check FILE`` compares with saved ones, by default with ``slam_fingerprint.json`` beside
-this script, the rows of ``main`` at 2c8a92e on the machine the kit is developed on; exits 1
+this script, the rows of ``main`` at 4d0568a on the machine the kit is developed on; exits 1
 on any difference). The digests hold for one machine: numpy's SIMD kernels differ in the last
 bit between CPUs, and a whole-log run makes other decisions from that. The old
 code need not have this script: put its checkout (its ``kit/``) first on the path and run
@@ -50,7 +50,7 @@ RUNS = {"intel": (1, 2, 3, 4, 5), "fr079": (1, 2, 3, 4, 5), "csail": ()}
 """Each log's noise seeds (besides the run as-is); the logs are ``bench_slam_logs``'s."""
 
 EXPECTED = Path(__file__).with_suffix(".json")
-"""The rows of ``main`` at 2c8a92e (ICP's loop compiled) on the 2-core machine the kit is
+"""The rows of ``main`` at 4d0568a (ICP's solve written out) on the 2-core machine the kit is
 developed on (its ``rows``): what ``--check`` compares with by default."""
 
 
