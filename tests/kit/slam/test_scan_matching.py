@@ -321,8 +321,9 @@ def test_a_penalty_picks_the_pose_nearest_the_guess_where_a_corridor_cannot_tell
 def test_the_partition_picks_the_sorted_element_and_the_elimination_solves_as_lapack():
     """ICP's two compiled helpers against numpy: the k-th smallest of arrays with ties is
     ``np.sort``'s k-th element, for every k; a 3 × 3 system is solved as
-    ``np.linalg.solve`` solves it (to rounding), and the exactly singular ones that LAPACK
-    refuses are refused."""
+    ``np.linalg.solve`` solves it (the residual at rounding, the answers no farther apart
+    than the condition number lets two backward-stable solvers be), and the exactly
+    singular ones that LAPACK refuses are refused."""
     sm._compiled_icp()
     rng = np.random.default_rng(11)
     for trial in range(60):
