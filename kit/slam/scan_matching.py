@@ -314,13 +314,13 @@ def icp(source: ArrayLike, reference: PointCloudReference | ArrayLike, initial: 
     b = ref.buckets()
     assert ref.normals is not None
     loop = _compiled_icp()
+    held = np.zeros((3, 3)) if omega is None else omega
     x, it, step, kept = x0, 0, np.zeros(3, dtype=np.float64), 0
-    while True:
+    while True:  # once, or once more after each exactly singular system
         x, H, g, kept, squares, converged, it, singular = loop(
             src, ref.points, ref.normals, b.origin, b.cell, b.width, b.height, b.start,
-            b.order, x0, omega is not None, np.zeros((3, 3)) if omega is None else omega,
-            cfg.max_iterations, cfg.max_distance, cfg.trim, cfg.sigma, cfg.tolerance, x, it,
-            step, kept)
+            b.order, x0, omega is not None, held, cfg.max_iterations, cfg.max_distance,
+            cfg.trim, cfg.sigma, cfg.tolerance, x, it, step, kept)
         if not singular:
             break
         step = -np.asarray(np.linalg.lstsq(H, g, rcond=3 * np.finfo(np.float64).eps)[0],
