@@ -477,8 +477,9 @@ def _normal_equations_python(src: FloatArray, points: FloatArray, normals: Float
     # the ``keep`` smallest |r| (argpartition's choice, ties at the threshold aside)
     threshold, spare = np.inf, found
     if keep < found:
+        # a fresh array, which the select may reorder: the count below does not change
         size = np.abs(r[:found])
-        threshold = _smallest(size.copy(), keep - 1)
+        threshold = _smallest(size, keep - 1)
         spare = keep - int(np.sum(size < threshold))
     H, g = np.zeros((3, 3)), np.zeros(3)
     kept, squares = 0, 0.0
